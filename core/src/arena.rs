@@ -1,0 +1,394 @@
+//! A bump arena over a caller-owned byte buffer: the only source of memory in core.
+//!
+//! Layout: *persistent* allocations grow upwards from the start of the buffer and
+//! live as long as the arena; *scratch* allocations grow downwards from its end and
+//! are reclaimed when the [`Arena::scratch`] scope that made them returns. The two
+//! ends meet in the middle: a request that does not fit between them fails with
+//! [`Exhausted`], never a panic.
+//!
+//! ```text
+//!  buffer: [ persistent ->  ......free......  <- scratch (innermost scope lowest) ]
+//!           0          front                back                              len
+//! ```
+//!
+//! Only `Copy` types are handed out, so nothing ever needs dropping and reclaiming a
+//! scope is just moving an offset. `used()` and `peak()` are exact byte counts
+//! (alignment padding included), so the memory tests can compare them with the
+//! predicted budget.
+//!
+//! This is the one module of the crate that uses `unsafe`: turning the raw buffer
+//! into typed, disjoint `&mut [T]` slices. Every block states why it is sound.
+#![allow(unsafe_code)]
+
+use core::cell::Cell;
+use core::fmt;
+use core::marker::PhantomData;
+use core::mem::{align_of, size_of, MaybeUninit};
+use core::ptr::NonNull;
+
+/// The arena could not satisfy an allocation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Exhausted {
+    /// Bytes the failed allocation asked for (alignment padding included;
+    /// `usize::MAX` when the size itself overflowed).
+    pub requested: usize,
+    /// Bytes that were free between the two ends at that moment.
+    pub available: usize,
+}
+
+impl fmt::Display for Exhausted {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "memory arena exhausted: needed {} more bytes, {} available",
+            self.requested, self.available
+        )
+    }
+}
+
+/// Bump arena over `&'buf mut [MaybeUninit<u8>]`. See the module docs.
+///
+/// Not `Sync`: offsets live in `Cell`s, so allocation needs only `&self` and
+/// any number of disjoint slices can be alive at once.
+pub struct Arena<'buf> {
+    base: NonNull<u8>,
+    len: usize,
+    /// First free byte after the persistent allocations.
+    front: Cell<usize>,
+    /// First byte of the innermost scratch allocation (`len` when none).
+    back: Cell<usize>,
+    /// Depth of the innermost live scratch scope (0: none).
+    depth: Cell<u32>,
+    peak: Cell<usize>,
+    _buf: PhantomData<&'buf mut [MaybeUninit<u8>]>,
+}
+
+impl<'buf> Arena<'buf> {
+    /// An empty arena over `buf`. The arena borrows the buffer mutably for its whole
+    /// life; dropping the arena gives the buffer back for reuse.
+    pub fn new(buf: &'buf mut [MaybeUninit<u8>]) -> Self {
+        let len = buf.len();
+        // A slice pointer is never null (it is dangling but aligned when empty).
+        let base = NonNull::from(buf).cast::<u8>();
+        Arena {
+            base,
+            len,
+            front: Cell::new(0),
+            back: Cell::new(len),
+            depth: Cell::new(0),
+            peak: Cell::new(0),
+            _buf: PhantomData,
+        }
+    }
+
+    /// Total size of the buffer in bytes.
+    pub fn capacity(&self) -> usize {
+        self.len
+    }
+
+    /// Bytes currently allocated (persistent plus live scratch), padding included.
+    pub fn used(&self) -> usize {
+        self.front.get() + (self.len - self.back.get())
+    }
+
+    /// The largest `used()` ever reached.
+    pub fn peak(&self) -> usize {
+        self.peak.get()
+    }
+
+    /// Bytes between the two ends (an upper bound on the next allocation).
+    pub fn available(&self) -> usize {
+        self.back.get() - self.front.get()
+    }
+
+    fn note_peak(&self) {
+        let used = self.used();
+        if used > self.peak.get() {
+            self.peak.set(used);
+        }
+    }
+
+    fn byte_size<T>(count: usize) -> Result<usize, Exhausted> {
+        count.checked_mul(size_of::<T>()).ok_or(Exhausted {
+            requested: usize::MAX,
+            available: 0,
+        })
+    }
+
+    /// Reserve room for `count` values of `T` at the front. Returns the byte offset.
+    fn reserve_front<T>(&self, count: usize) -> Result<usize, Exhausted> {
+        let bytes = Self::byte_size::<T>(count)?;
+        let front = self.front.get();
+        let addr = self.base.as_ptr() as usize + front;
+        let pad = addr.wrapping_neg() & (align_of::<T>() - 1);
+        let need = bytes.checked_add(pad).unwrap_or(usize::MAX);
+        let available = self.available();
+        if need > available {
+            return Err(Exhausted {
+                requested: need,
+                available,
+            });
+        }
+        self.front.set(front + need);
+        self.note_peak();
+        Ok(front + pad)
+    }
+
+    /// Reserve room for `count` values of `T` at the back. Returns the byte offset.
+    fn reserve_back<T>(&self, count: usize) -> Result<usize, Exhausted> {
+        let bytes = Self::byte_size::<T>(count)?;
+        let back = self.back.get();
+        let available = self.available();
+        if bytes > available {
+            return Err(Exhausted {
+                requested: bytes,
+                available,
+            });
+        }
+        let start = back - bytes;
+        let addr = self.base.as_ptr() as usize + start;
+        let aligned = start - (addr & (align_of::<T>() - 1));
+        if aligned < self.front.get() {
+            return Err(Exhausted {
+                requested: back - aligned,
+                available,
+            });
+        }
+        self.back.set(aligned);
+        self.note_peak();
+        Ok(aligned)
+    }
+
+    /// Fill `count` slots at byte `offset` with `value` and hand them out.
+    fn fill_at<T: Copy>(&self, offset: usize, count: usize, value: T) -> &mut [T] {
+        if size_of::<T>() == 0 {
+            // SAFETY: a slice of a zero-sized type needs no memory, only a non-null,
+            // aligned pointer, which `dangling` is.
+            return unsafe { core::slice::from_raw_parts_mut(NonNull::<T>::dangling().as_ptr(), count) };
+        }
+        // SAFETY: `reserve_*` returned an offset inside the buffer where
+        // `count * size_of::<T>()` bytes are free, aligned for `T`, and not handed out
+        // to anyone else (the front and back regions never overlap, and a region is
+        // only reused after the scope that owned it has ended, which the borrow on
+        // `Scratch` enforces). `T: Copy` has no drop glue, so abandoning values when a
+        // scope ends is fine. Every slot is written before the slice is formed.
+        unsafe {
+            let ptr = self.base.as_ptr().add(offset).cast::<T>();
+            for i in 0..count {
+                ptr.add(i).write(value);
+            }
+            core::slice::from_raw_parts_mut(ptr, count)
+        }
+    }
+
+    /// Allocate `count` copies of `value`, persistent for the arena's life.
+    /// Cost: O(count).
+    #[allow(clippy::mut_from_ref)] // disjoint regions: see `fill_at`
+    pub fn try_alloc_slice<T: Copy>(&self, count: usize, value: T) -> Result<&mut [T], Exhausted> {
+        let offset = self.reserve_front::<T>(count)?;
+        Ok(self.fill_at(offset, count, value))
+    }
+
+    /// Copy `src` into a persistent allocation.
+    #[allow(clippy::mut_from_ref)] // disjoint regions: see `fill_at`
+    pub fn try_alloc_copy<T: Copy + Default>(&self, src: &[T]) -> Result<&mut [T], Exhausted> {
+        let out = self.try_alloc_slice(src.len(), T::default())?;
+        out.copy_from_slice(src);
+        Ok(out)
+    }
+
+    /// Run `f` with a scratch sub-arena whose allocations are reclaimed when `f`
+    /// returns. Persistent allocations from `self` remain possible inside `f`.
+    /// The result type cannot borrow from the scratch scope.
+    pub fn scratch<R>(&self, f: impl FnOnce(&Scratch<'_, 'buf>) -> R) -> R {
+        let saved_back = self.back.get();
+        let depth = self.depth.get() + 1;
+        self.depth.set(depth);
+        let scope = Scratch {
+            arena: self,
+            depth,
+            _not_send: PhantomData,
+        };
+        let out = f(&scope);
+        self.depth.set(depth - 1);
+        self.back.set(saved_back);
+        out
+    }
+
+    /// Forget every allocation (the peak is kept). Needs `&mut self`, so no slice
+    /// handed out earlier can still be alive.
+    pub fn reset(&mut self) {
+        self.front.set(0);
+        self.back.set(self.len);
+        self.depth.set(0);
+    }
+}
+
+/// A scratch scope of an [`Arena`]: allocations come from the arena's back end and
+/// are reclaimed when the scope ends.
+pub struct Scratch<'a, 'buf> {
+    arena: &'a Arena<'buf>,
+    depth: u32,
+    _not_send: PhantomData<*const ()>,
+}
+
+impl<'buf> Scratch<'_, 'buf> {
+    fn check_innermost(&self, count: usize) -> Result<(), Exhausted> {
+        if self.arena.depth.get() != self.depth {
+            // Allocating from an outer scope while an inner one is live would place
+            // the memory inside the inner scope's region and free it too early.
+            // Core never does this; refuse rather than corrupt.
+            return Err(Exhausted {
+                requested: count,
+                available: 0,
+            });
+        }
+        Ok(())
+    }
+
+    /// Allocate `count` copies of `value` for the life of this scope.
+    #[allow(clippy::mut_from_ref)] // disjoint regions: see `Arena::fill_at`
+    pub fn try_alloc_slice<T: Copy>(&self, count: usize, value: T) -> Result<&mut [T], Exhausted> {
+        self.check_innermost(count)?;
+        let offset = self.arena.reserve_back::<T>(count)?;
+        Ok(self.arena.fill_at(offset, count, value))
+    }
+
+    /// Copy `src` into this scope.
+    #[allow(clippy::mut_from_ref)] // disjoint regions: see `Arena::fill_at`
+    pub fn try_alloc_copy<T: Copy + Default>(&self, src: &[T]) -> Result<&mut [T], Exhausted> {
+        let out = self.try_alloc_slice(src.len(), T::default())?;
+        out.copy_from_slice(src);
+        Ok(out)
+    }
+
+    /// A nested scope; this scope cannot allocate until the nested one ends.
+    pub fn scratch<R>(&self, f: impl FnOnce(&Scratch<'_, 'buf>) -> R) -> R {
+        self.arena.scratch(f)
+    }
+
+    /// The arena this scope belongs to (for persistent allocations and statistics).
+    pub fn arena(&self) -> &Arena<'buf> {
+        self.arena
+    }
+
+    /// Bytes free in the arena.
+    pub fn available(&self) -> usize {
+        self.arena.available()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn buf(n: usize) -> [MaybeUninit<u8>; 256] {
+        assert!(n <= 256);
+        [MaybeUninit::uninit(); 256]
+    }
+
+    #[test]
+    fn exhaustion_is_an_error_with_exact_numbers() {
+        let mut b = buf(256);
+        let a = Arena::new(&mut b[..64]);
+        let x = a.try_alloc_slice::<u32>(10, 7).unwrap();
+        assert_eq!(x, &[7; 10]);
+        let used = a.used();
+        assert!((40..=43).contains(&used), "{used}");
+        let e = a.try_alloc_slice::<u32>(100, 0).unwrap_err();
+        assert_eq!(e.available, 64 - used);
+        assert!(e.requested >= 400);
+        // The failed request took nothing.
+        assert_eq!(a.used(), used);
+        assert_eq!(a.peak(), used);
+    }
+
+    #[test]
+    fn size_overflow_is_an_error_not_a_panic() {
+        let mut b = buf(256);
+        let a = Arena::new(&mut b[..]);
+        let e = a.try_alloc_slice::<u64>(usize::MAX / 2, 0).unwrap_err();
+        assert_eq!(e.requested, usize::MAX);
+    }
+
+    #[test]
+    fn scratch_is_reclaimed_and_peak_remembers_it() {
+        let mut b = buf(256);
+        let a = Arena::new(&mut b[..]);
+        let p = a.try_alloc_slice::<u8>(16, 1).unwrap();
+        let before = a.used();
+        let s = a.scratch(|s| {
+            let t = s.try_alloc_slice::<u64>(8, 3).unwrap();
+            // A persistent allocation is allowed inside a scope and survives it.
+            let q = s.arena().try_alloc_slice::<u8>(4, 9).unwrap();
+            t.iter().sum::<u64>() + q.len() as u64
+        });
+        assert_eq!(s, 28);
+        assert_eq!(a.used(), before + 4);
+        assert!(a.peak() >= before + 4 + 64);
+        assert_eq!(p, &[1; 16]);
+    }
+
+    #[test]
+    fn values_are_aligned_at_both_ends() {
+        let mut b = buf(256);
+        let a = Arena::new(&mut b[..]);
+        let _ = a.try_alloc_slice::<u8>(3, 0).unwrap();
+        let x = a.try_alloc_slice::<u64>(2, 0).unwrap();
+        assert_eq!(x.as_ptr() as usize % align_of::<u64>(), 0);
+        a.scratch(|s| {
+            let _ = s.try_alloc_slice::<u8>(5, 0).unwrap();
+            let y = s.try_alloc_slice::<u64>(1, 0).unwrap();
+            assert_eq!(y.as_ptr() as usize % align_of::<u64>(), 0);
+        });
+    }
+
+    #[test]
+    fn outer_scope_cannot_allocate_while_inner_is_live() {
+        let mut b = buf(256);
+        let a = Arena::new(&mut b[..]);
+        a.scratch(|outer| {
+            let _keep = outer.try_alloc_slice::<u32>(2, 5).unwrap();
+            outer.scratch(|inner| {
+                assert!(inner.try_alloc_slice::<u32>(2, 0).is_ok());
+                assert!(outer.try_alloc_slice::<u32>(2, 0).is_err());
+            });
+            assert!(outer.try_alloc_slice::<u32>(2, 0).is_ok());
+        });
+    }
+
+    #[test]
+    fn the_ends_never_overlap() {
+        let mut b = buf(256);
+        let a = Arena::new(&mut b[..100]);
+        let p = a.try_alloc_slice::<u8>(50, 1).unwrap();
+        a.scratch(|s| {
+            assert!(s.try_alloc_slice::<u8>(51, 2).is_err());
+            let t = s.try_alloc_slice::<u8>(50, 2).unwrap();
+            assert_eq!(a.available(), 0);
+            assert!(a.try_alloc_slice::<u8>(1, 0).is_err());
+            assert!(t.iter().all(|&v| v == 2));
+        });
+        assert!(p.iter().all(|&v| v == 1));
+    }
+
+    #[test]
+    fn reset_makes_the_buffer_reusable() {
+        let mut b = buf(256);
+        let mut a = Arena::new(&mut b[..32]);
+        assert!(a.try_alloc_slice::<u8>(32, 0).is_ok());
+        assert!(a.try_alloc_slice::<u8>(1, 0).is_err());
+        a.reset();
+        assert!(a.try_alloc_slice::<u8>(32, 0).is_ok());
+    }
+
+    #[test]
+    fn zero_sized_and_empty_requests_work() {
+        let mut b = buf(256);
+        let a = Arena::new(&mut b[..0]);
+        assert_eq!(a.try_alloc_slice::<()>(1000, ()).unwrap().len(), 1000);
+        assert_eq!(a.try_alloc_slice::<u32>(0, 0).unwrap().len(), 0);
+        assert!(a.try_alloc_slice::<u32>(1, 0).is_err());
+    }
+}

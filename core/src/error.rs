@@ -1,0 +1,95 @@
+//! The crate's one error type: every failure is a value with the numbers a caller
+//! needs to act on it.
+
+use core::fmt;
+
+pub use crate::arena::Exhausted;
+
+/// What makes an input unable to form a surface.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum Degeneracy {
+    /// Every point is the same point.
+    Coincident,
+    /// Every point lies on one line.
+    Collinear,
+    /// Every point lies on one plane.
+    Coplanar,
+}
+
+/// Why a run failed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum Error {
+    /// The arena ran out of memory.
+    Exhausted(Exhausted),
+    /// Fewer points than a surface needs.
+    TooFewPoints { found: usize, needed: usize },
+    /// A coordinate (or given normal component) is NaN or infinite.
+    NonFinite { index: usize, axis: u8, value: f32, normal: bool },
+    /// The points cannot span a surface.
+    Degenerate(Degeneracy),
+    /// `k` is outside `1..=MAX_K` or not smaller than the number of points.
+    BadNeighbours { k: usize, points: usize },
+    /// A parameter is outside its documented range.
+    BadParameter { name: &'static str, value: f32 },
+    /// The normals slice does not match the points.
+    NormalsLength { points: usize, normals: usize },
+    /// More points than the `u32` indices of core can address.
+    TooManyPoints { found: usize, max: usize },
+    /// The progress callback asked to stop.
+    Cancelled,
+}
+
+/// Result alias used across core.
+pub type Result<T> = core::result::Result<T, Error>;
+
+impl From<Exhausted> for Error {
+    fn from(e: Exhausted) -> Self {
+        Error::Exhausted(e)
+    }
+}
+
+impl fmt::Display for Error {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            Error::Exhausted(e) => e.fmt(f),
+            Error::TooFewPoints { found, needed } => {
+                write!(f, "{found} points given; a surface needs at least {needed}")
+            }
+            Error::NonFinite {
+                index,
+                axis,
+                value,
+                normal,
+            } => {
+                let what = if normal { "normal" } else { "coordinate" };
+                let axis = ["x", "y", "z"].get(axis as usize).copied().unwrap_or("?");
+                write!(f, "point {index}: {what} {axis} is {value}, not a finite number")
+            }
+            Error::Degenerate(d) => {
+                let what = match d {
+                    Degeneracy::Coincident => "all points coincide",
+                    Degeneracy::Collinear => "all points lie on one line",
+                    Degeneracy::Coplanar => "all points lie on one plane",
+                };
+                write!(f, "{what}: no surface can be reconstructed")
+            }
+            Error::BadNeighbours { k, points } => write!(
+                f,
+                "k = {k} neighbours is not possible with {points} points (need 1 <= k <= {} and k < points)",
+                crate::params::MAX_K
+            ),
+            Error::BadParameter { name, value } => write!(f, "parameter {name} = {value} is out of range"),
+            Error::NormalsLength { points, normals } => {
+                write!(f, "{normals} normals given for {points} points")
+            }
+            Error::TooManyPoints { found, max } => {
+                write!(f, "{found} points given; at most {max} are supported")
+            }
+            Error::Cancelled => f.write_str("cancelled"),
+        }
+    }
+}

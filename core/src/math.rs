@@ -1,0 +1,213 @@
+//! Small dense linear algebra: 3-vectors, the symmetric 3x3 eigenproblem (cyclic
+//! Jacobi, f64) and a seeded PRNG. Everything here is branch-light, allocation-free
+//! and deterministic: the same inputs give bit-identical outputs on every target.
+
+#![allow(missing_docs)]
+pub type V3 = [f32; 3];
+
+#[inline]
+pub fn sub(a: V3, b: V3) -> V3 {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+#[inline]
+pub fn dot(a: V3, b: V3) -> f32 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+#[inline]
+pub fn cross(a: V3, b: V3) -> V3 {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// Squared distance, computed the same way everywhere so that ties compare exactly.
+#[inline]
+pub fn dist2(a: V3, b: V3) -> f32 {
+    let d = sub(a, b);
+    d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+}
+
+#[inline]
+pub fn norm(a: V3) -> f32 {
+    libm::sqrtf(dot(a, a))
+}
+
+#[inline]
+pub fn is_finite3(a: V3) -> bool {
+    a[0].is_finite() && a[1].is_finite() && a[2].is_finite()
+}
+
+pub type D3 = [f64; 3];
+
+#[inline]
+pub fn to_d3(a: V3) -> D3 {
+    [a[0] as f64, a[1] as f64, a[2] as f64]
+}
+
+#[inline]
+pub fn dot_d(a: D3, b: D3) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// Symmetric 3x3 matrix stored as its upper triangle: xx xy xz yy yz zz.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Sym3(pub [f64; 6]);
+
+impl Sym3 {
+    #[inline]
+    pub fn full(&self) -> [[f64; 3]; 3] {
+        let s = &self.0;
+        [[s[0], s[1], s[2]], [s[1], s[3], s[4]], [s[2], s[4], s[5]]]
+    }
+
+    #[inline]
+    pub fn mul(&self, v: D3) -> D3 {
+        let m = self.full();
+        [dot_d(m[0], v), dot_d(m[1], v), dot_d(m[2], v)]
+    }
+
+    /// Eigenvalues ascending with unit eigenvectors (`vectors[i]` belongs to
+    /// `values[i]`), by cyclic Jacobi rotations. Converges quadratically; a fixed cap
+    /// of sweeps keeps the cost bounded for any input, including NaN.
+    pub fn eigen(&self) -> ([f64; 3], [D3; 3]) {
+        let mut a = self.full();
+        let mut v = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        for _sweep in 0..32 {
+            let off = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
+            let diag = a[0][0] * a[0][0] + a[1][1] * a[1][1] + a[2][2] * a[2][2];
+            if off <= 1e-30 * diag || off == 0.0 || off.is_nan() {
+                break;
+            }
+            for (p, q) in [(0usize, 1usize), (0, 2), (1, 2)] {
+                if a[p][q] == 0.0 {
+                    continue;
+                }
+                let theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
+                let t = theta.signum() / (theta.abs() + libm::sqrt(theta * theta + 1.0));
+                let t = if theta == 0.0 { 1.0 } else { t };
+                let c = 1.0 / libm::sqrt(t * t + 1.0);
+                let s = t * c;
+                // a <- J^T a J with the rotation in the (p, q) plane.
+                for row in a.iter_mut() {
+                    let (ap, aq) = (row[p], row[q]);
+                    row[p] = c * ap - s * aq;
+                    row[q] = s * ap + c * aq;
+                }
+                let (rp, rq) = (a[p], a[q]);
+                for k in 0..3 {
+                    a[p][k] = c * rp[k] - s * rq[k];
+                    a[q][k] = s * rp[k] + c * rq[k];
+                }
+                for row in v.iter_mut() {
+                    let (vp, vq) = (row[p], row[q]);
+                    row[p] = c * vp - s * vq;
+                    row[q] = s * vp + c * vq;
+                }
+            }
+        }
+        let vals = [a[0][0], a[1][1], a[2][2]];
+        let col = |i: usize| [v[0][i], v[1][i], v[2][i]];
+        let mut idx = [0usize, 1, 2];
+        // Sort ascending; NaN (never produced from finite input) sorts last.
+        idx.sort_unstable_by(|&i, &j| vals[i].total_cmp(&vals[j]));
+        (
+            [vals[idx[0]], vals[idx[1]], vals[idx[2]]],
+            [col(idx[0]), col(idx[1]), col(idx[2])],
+        )
+    }
+
+    /// Solve `self * x = b` through the eigen-decomposition, treating eigenvalues
+    /// below `rel * max|eigenvalue|` as zero (least-norm solution in those directions).
+    /// Returns the solution and the numerical rank.
+    pub fn pseudo_solve(&self, b: D3, rel: f64) -> (D3, u32) {
+        let (vals, vecs) = self.eigen();
+        let max = vals.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let mut x = [0.0; 3];
+        let mut rank = 0;
+        if max > 0.0 && max.is_finite() {
+            for i in 0..3 {
+                if vals[i].abs() > rel * max {
+                    rank += 1;
+                    let w = dot_d(vecs[i], b) / vals[i];
+                    for (xk, vk) in x.iter_mut().zip(vecs[i]) {
+                        *xk += w * vk;
+                    }
+                }
+            }
+        }
+        (x, rank)
+    }
+}
+
+/// SplitMix64: a tiny seeded generator with good statistical quality for sampling.
+/// Identical sequences on every platform.
+#[derive(Clone, Debug)]
+pub struct Rng(u64);
+
+impl Rng {
+    pub fn new(seed: u64) -> Self {
+        Rng(seed ^ 0x6A09_E667_F3BC_C908)
+    }
+
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in `0..n` (n > 0) without modulo bias worth caring about (n < 2^32).
+    pub fn below(&mut self, n: u32) -> u32 {
+        (((self.next_u64() >> 32) * n as u64) >> 32) as u32
+    }
+
+    /// Uniform in [0, 1).
+    pub fn unit_f64(&mut self) -> f64 {
+        (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn jacobi_reconstructs_random_symmetric_matrices() {
+        let mut rng = Rng::new(1);
+        for _ in 0..1000 {
+            let s = Sym3(core::array::from_fn(|_| rng.unit_f64() * 2.0 - 1.0));
+            let (vals, vecs) = s.eigen();
+            assert!(vals[0] <= vals[1] && vals[1] <= vals[2]);
+            for i in 0..3 {
+                let av = s.mul(vecs[i]);
+                for k in 0..3 {
+                    assert!((av[k] - vals[i] * vecs[i][k]).abs() < 1e-12, "{s:?}");
+                }
+                assert!((dot_d(vecs[i], vecs[i]) - 1.0).abs() < 1e-12);
+            }
+        }
+    }
+
+    #[test]
+    fn pseudo_solve_drops_null_directions() {
+        // Rank 2: diag(2, 4, 0). b has a component in the null direction.
+        let s = Sym3([2.0, 0.0, 0.0, 4.0, 0.0, 0.0]);
+        let (x, rank) = s.pseudo_solve([2.0, 4.0, 7.0], 1e-9);
+        assert_eq!(rank, 2);
+        assert!((x[0] - 1.0).abs() < 1e-12 && (x[1] - 1.0).abs() < 1e-12 && x[2] == 0.0);
+    }
+
+    #[test]
+    fn degenerate_matrices_do_not_produce_nan() {
+        let (vals, vecs) = Sym3::default().eigen();
+        assert!(vals.iter().all(|v| *v == 0.0));
+        assert!(vecs.iter().flatten().all(|v| v.is_finite()));
+        let (x, rank) = Sym3::default().pseudo_solve([1.0, 1.0, 1.0], 1e-9);
+        assert_eq!((x, rank), ([0.0; 3], 0));
+    }
+}

@@ -1,0 +1,89 @@
+//! Every tunable of the pipeline, with its unit and default, in one place.
+
+use crate::error::{Error, Result};
+
+/// Largest supported neighbourhood size.
+pub const MAX_K: usize = 32;
+
+/// Parameters of a run. Distances are relative to the diagonal of the input's
+/// bounding box, so the same values work at any scale.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub struct Params {
+    /// Neighbours per point (excluding the point itself), `1..=32`. Default 12.
+    pub k: usize,
+    /// Initial number of generators (clusters). Clamped to the number of points and
+    /// raised to the number of connected components. Default 1000.
+    pub clusters: u32,
+    /// Upper bound on clusters that batch splitting may reach; 0 means twice
+    /// `clusters`. Default 0.
+    pub max_clusters: u32,
+    /// Partition + generator-update passes before the first splitting batch; the
+    /// loop stops early when no generator moves. Default 5.
+    pub iterations: u32,
+    /// Partition + update passes after each splitting batch. Default 2.
+    pub split_iterations: u32,
+    /// Splitting batches at most. Default 5.
+    pub split_rounds: u32,
+    /// Largest allowed QEM error of a point w.r.t. its cluster's generator, as a
+    /// distance relative to the bounding-box diagonal (see `split`): the generator
+    /// must lie within this RMS distance of the tangent planes of every point of the
+    /// cluster's neighbourhoods. 0 disables splitting. Default 0.005 (0.5 %).
+    pub tolerance: f32,
+    /// Weight of the squared Euclidean distance against the squared plane distance
+    /// in the partition cost (seed Eq. 4), dimensionless: `E(p, c) = Q_v(p)(c) +
+    /// lambda * W * |p - c|^2` with `W` the mean total area weight of a diffused
+    /// quadric. Default 0.001.
+    pub lambda: f32,
+    /// Seed of the deterministic generator initialisation. Default 1.
+    pub seed: u64,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Params {
+            k: 12,
+            clusters: 1000,
+            max_clusters: 0,
+            iterations: 5,
+            split_iterations: 2,
+            split_rounds: 5,
+            tolerance: 0.005,
+            lambda: 0.001,
+            seed: 1,
+        }
+    }
+}
+
+impl Params {
+    /// The cluster cap splitting works towards.
+    pub fn cluster_cap(&self) -> u32 {
+        if self.max_clusters == 0 {
+            self.clusters.saturating_mul(2)
+        } else {
+            self.max_clusters.max(self.clusters)
+        }
+    }
+
+    /// Check every field against its documented range.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |name, value: f32| Err(Error::BadParameter { name, value });
+        if self.clusters == 0 {
+            return bad("clusters", 0.0);
+        }
+        if !(self.tolerance.is_finite() && self.tolerance >= 0.0) {
+            return bad("tolerance", self.tolerance);
+        }
+        if !(self.lambda.is_finite() && self.lambda >= 0.0) {
+            return bad("lambda", self.lambda);
+        }
+        if self.clusters >= 1 << 30 {
+            return bad("clusters", self.clusters as f32);
+        }
+        if self.max_clusters >= 1 << 30 {
+            return bad("max_clusters", self.max_clusters as f32);
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,60 @@
+//! Progress reporting and cancellation: the caller implements [`Progress`].
+
+/// Pipeline stages, in the order they run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum Stage {
+    /// Input checks (finite, enough points, not degenerate).
+    Validate,
+    /// Grid and k nearest neighbours.
+    Neighbours,
+    /// Normals, support areas and plane quadrics.
+    Quadrics,
+    /// Partition, generator update and batch splitting.
+    Clustering,
+}
+
+impl Stage {
+    /// A short lower-case name for reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Stage::Validate => "validate",
+            Stage::Neighbours => "neighbours",
+            Stage::Quadrics => "quadrics",
+            Stage::Clustering => "clustering",
+        }
+    }
+}
+
+/// What the callback wants next.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Flow {
+    Continue,
+    Cancel,
+}
+
+/// Receives `(stage, done, total)` at stage boundaries and every few thousand items
+/// of work; returning [`Flow::Cancel`] makes the run stop with `Error::Cancelled`
+/// at the next report. `done == total` marks the end of a stage. Units of `done`
+/// are stage-specific (points, or partition passes for clustering).
+pub trait Progress {
+    fn report(&mut self, stage: Stage, done: u64, total: u64) -> Flow;
+}
+
+/// A [`Progress`] that never reports and never cancels.
+pub struct Silent;
+
+impl Progress for Silent {
+    fn report(&mut self, _: Stage, _: u64, _: u64) -> Flow {
+        Flow::Continue
+    }
+}
+
+/// Forward a report, turning a cancel request into an error.
+pub(crate) fn tick(p: &mut dyn Progress, stage: Stage, done: u64, total: u64) -> crate::Result<()> {
+    match p.report(stage, done, total) {
+        Flow::Continue => Ok(()),
+        Flow::Cancel => Err(crate::Error::Cancelled),
+    }
+}
