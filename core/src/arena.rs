@@ -122,7 +122,7 @@ impl<'buf> Arena<'buf> {
         let front = self.front.get();
         let addr = self.base.as_ptr() as usize + front;
         let pad = addr.wrapping_neg() & (align_of::<T>() - 1);
-        let need = bytes.checked_add(pad).unwrap_or(usize::MAX);
+        let need = bytes.saturating_add(pad);
         let available = self.available();
         if need > available {
             return Err(Exhausted {
@@ -161,11 +161,14 @@ impl<'buf> Arena<'buf> {
     }
 
     /// Fill `count` slots at byte `offset` with `value` and hand them out.
+    #[allow(clippy::mut_from_ref)] // each offset is handed out once: see SAFETY
     fn fill_at<T: Copy>(&self, offset: usize, count: usize, value: T) -> &mut [T] {
         if size_of::<T>() == 0 {
             // SAFETY: a slice of a zero-sized type needs no memory, only a non-null,
             // aligned pointer, which `dangling` is.
-            return unsafe { core::slice::from_raw_parts_mut(NonNull::<T>::dangling().as_ptr(), count) };
+            return unsafe {
+                core::slice::from_raw_parts_mut(NonNull::<T>::dangling().as_ptr(), count)
+            };
         }
         // SAFETY: `reserve_*` returned an offset inside the buffer where
         // `count * size_of::<T>()` bytes are free, aligned for `T`, and not handed out

@@ -26,19 +26,53 @@ pub enum Error {
     /// The arena ran out of memory.
     Exhausted(Exhausted),
     /// Fewer points than a surface needs.
-    TooFewPoints { found: usize, needed: usize },
+    TooFewPoints {
+        /// Points given.
+        found: usize,
+        /// Points required.
+        needed: usize,
+    },
     /// A coordinate (or given normal component) is NaN or infinite.
-    NonFinite { index: usize, axis: u8, value: f32, normal: bool },
+    NonFinite {
+        /// Index of the point.
+        index: usize,
+        /// 0, 1, 2 for x, y, z.
+        axis: u8,
+        /// The offending value.
+        value: f32,
+        /// Whether it is a normal component rather than a coordinate.
+        normal: bool,
+    },
     /// The points cannot span a surface.
     Degenerate(Degeneracy),
     /// `k` is outside `1..=MAX_K` or not smaller than the number of points.
-    BadNeighbours { k: usize, points: usize },
+    BadNeighbours {
+        /// The requested k.
+        k: usize,
+        /// Points given.
+        points: usize,
+    },
     /// A parameter is outside its documented range.
-    BadParameter { name: &'static str, value: f32 },
+    BadParameter {
+        /// Field of `Params`.
+        name: &'static str,
+        /// The offending value.
+        value: f32,
+    },
     /// The normals slice does not match the points.
-    NormalsLength { points: usize, normals: usize },
+    NormalsLength {
+        /// Points given.
+        points: usize,
+        /// Normals given.
+        normals: usize,
+    },
     /// More points than the `u32` indices of core can address.
-    TooManyPoints { found: usize, max: usize },
+    TooManyPoints {
+        /// Points given.
+        found: usize,
+        /// The limit.
+        max: usize,
+    },
     /// The progress callback asked to stop.
     Cancelled,
 }

@@ -9,7 +9,6 @@ pub const MAX_K: usize = 32;
 /// bounding box, so the same values work at any scale.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-#[non_exhaustive]
 pub struct Params {
     /// Neighbours per point (excluding the point itself), `1..=32`. Default 12.
     pub k: usize,

@@ -30,7 +30,9 @@ impl Stage {
 /// What the callback wants next.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Flow {
+    /// Go on.
     Continue,
+    /// Stop with `Error::Cancelled`.
     Cancel,
 }
 
@@ -39,6 +41,7 @@ pub enum Flow {
 /// at the next report. `done == total` marks the end of a stage. Units of `done`
 /// are stage-specific (points, or partition passes for clustering).
 pub trait Progress {
+    /// Called at stage boundaries and periodically within a stage.
     fn report(&mut self, stage: Stage, done: u64, total: u64) -> Flow;
 }
 

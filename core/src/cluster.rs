@@ -1,0 +1,614 @@
+//! Clustering: seeded initialisation, region-growing partition (seed Eq. 4),
+//! QEM-optimal generator update (Eq. 5), alternated with batch splitting (`split`).
+//!
+//! Energy minimised (a Lloyd-style alternation, so it never increases within a
+//! round): `Σ_p E(p, c_label(p))` with
+//! `E(p, c) = [c,1]ᵀ Q_v(p) [c,1] + λ W |p - c|²`, where `W` is the mean total
+//! weight of a diffused quadric (so `λ` is dimensionless, see [`Params::lambda`]).
+//!
+//! - **Initialisation**: every connected component of the symmetrised k-NN graph gets
+//!   one generator at a random point of it; the rest are drawn uniformly from all
+//!   points (partial Fisher-Yates with a seeded SplitMix64). Generators start at
+//!   their seed points.
+//! - **Partition**: multi-source region growing on the symmetrised graph with a
+//!   binary min-heap of `(cost, point)` keys packed in a `u64` (ties by point index:
+//!   deterministic). Seeds go first; a point is pushed again only when a strictly
+//!   cheaper cluster reaches it, and its first pop is final, so stale entries are
+//!   skipped by a "finalised" bit. When the heap is full it is compacted (stale
+//!   entries recognised by recomputing their cost), so `n` slots always suffice.
+//!   Every label grows from a labelled neighbour, so clusters are connected.
+//! - **Update**: `c_j = argmin Σ_{p ∈ j} E(p, c)`: the cluster's summed diffused
+//!   quadric plus the λ term, solved around the cluster centroid
+//!   ([`Quadric::minimizer`]). The next seed of a cluster is its member of least
+//!   cost to the new generator.
+//!
+//! Memory: labels 4 B and heap 8 B per point (the heap is scratch), plus
+//! O(clusters). Cost per pass: O(n k log n).
+
+use crate::arena::{Arena, Scratch};
+use crate::error::Result;
+use crate::knn::Neighbours;
+use crate::math::{dist2, Rng, V3};
+use crate::params::Params;
+use crate::progress::{tick, Progress, Stage};
+use crate::quadric::{Planes, Quadric};
+use crate::split;
+
+/// Label of a point not reached yet.
+pub const NONE: u32 = 0x7FFF_FFFF;
+const FINAL: u32 = 0x8000_0000;
+
+/// Rounds of splitting whose maximum error is kept in [`ClusterStats`].
+pub const ROUNDS_KEPT: usize = 16;
+
+/// Per-run clustering statistics.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct ClusterStats {
+    /// Connected components of the symmetrised k-NN graph.
+    pub components: u32,
+    /// Generators placed by the initialisation.
+    pub initial_clusters: u32,
+    /// Clusters at the end.
+    pub clusters: u32,
+    /// Partition + update passes run in total.
+    pub passes: u32,
+    /// Splitting batches accepted.
+    pub split_rounds: u32,
+    /// Splitting batches undone because they raised the maximum error.
+    pub rejected_batches: u32,
+    /// Generators added by splitting.
+    pub splits: u32,
+    /// Whether the last series of passes ended because no generator moved.
+    pub converged: bool,
+    /// Energy of the last partition (sum of point costs).
+    pub energy: f64,
+    /// Largest point error (RMS distance from the generator to the point's
+    /// neighbourhood planes) over all clusters, relative to the bounding-box
+    /// diagonal, at the end.
+    pub max_error: f32,
+    /// `max_error` before each accepted splitting batch, then at the end: never
+    /// increasing, because a batch that would raise it is undone and retried at
+    /// half its size.
+    pub error_per_round: [f32; ROUNDS_KEPT],
+}
+
+/// The result of clustering: a label per point, a generator per cluster.
+pub struct Clusters<'a> {
+    /// Cluster of each point, `0..generators.len()`.
+    pub labels: &'a [u32],
+    /// The QEM-optimal point of each cluster.
+    pub generators: &'a [V3],
+    /// A member of each cluster with the least cost to its generator.
+    pub seeds: &'a [u32],
+    /// Statistics.
+    pub stats: ClusterStats,
+}
+
+/// Context shared by the passes.
+pub(crate) struct Ctx<'p, 'a> {
+    pub points: &'p [V3],
+    pub nb: &'p Neighbours<'a>,
+    pub planes: &'p Planes<'a>,
+    /// `λ W`.
+    pub lambda_w: f32,
+}
+
+impl Ctx<'_, '_> {
+    /// Seed Eq. 4.
+    #[inline]
+    pub fn cost(&self, i: usize, c: V3) -> f32 {
+        self.planes.diffused_qem(self.nb, i, c) + self.lambda_w * dist2(self.points[i], c)
+    }
+}
+
+/// Bytes of arena that clustering `n` points into at most `cap` clusters needs:
+/// persistent labels, generators and seeds, plus the largest scratch of a pass.
+pub fn cluster_bytes(n: usize, cap: usize) -> usize {
+    let persistent = n * 4 + 2 * cap * (12 + 4);
+    let init = n * 8 + cap * 4; // union-find parents + shuffled order
+    let partition = n * 12 + cap * 4;
+    let update = cap * (core::mem::size_of::<Quadric>() + 8 * 4 + 8);
+    let split = split::split_bytes(n, cap);
+    persistent + init.max(partition).max(update).max(split) + 16 * 64
+}
+
+/// Run the whole clustering: initialisation, then rounds of partition/update
+/// passes separated by splitting batches.
+pub fn try_cluster_in<'a>(
+    arena: &'a Arena,
+    points: &[V3],
+    nb: &Neighbours,
+    planes: &Planes,
+    diag: f32,
+    params: &Params,
+    progress: &mut dyn Progress,
+) -> Result<Clusters<'a>> {
+    let n = points.len();
+    let ctx = Ctx {
+        points,
+        nb,
+        planes,
+        lambda_w: params.lambda * planes.mean_weight,
+    };
+    let planned = params.iterations.max(1) + params.split_rounds * params.split_iterations.max(1);
+    tick(progress, Stage::Clustering, 0, planned as u64)?;
+    let planned = params.iterations.max(1) + params.split_rounds * params.split_iterations.max(1);
+    tick(progress, Stage::Clustering, 0, planned as u64)?;
+    let labels = arena.try_alloc_slice::<u32>(n, NONE)?;
+    let components = arena.scratch(|s| components(s, nb).map(|(_, count)| count))?;
+    let wanted = (params.clusters as usize).min(n).max(components as usize);
+    let cap = (params.cluster_cap() as usize).min(n).max(wanted);
+    let generators = arena.try_alloc_slice::<V3>(cap, [0.0; 3])?;
+    let seeds = arena.try_alloc_slice::<u32>(cap, 0)?;
+    arena.scratch(|s| initial_seeds(s, nb, params.seed, &mut seeds[..wanted]))?;
+    for j in 0..wanted {
+        generators[j] = points[seeds[j] as usize];
+    }
+    let mut stats = ClusterStats {
+        components,
+        initial_clusters: wanted as u32,
+        ..ClusterStats::default()
+    };
+    let mut m = wanted;
+    let tol2 = {
+        let t = params.tolerance * diag;
+        t * t
+    };
+    // State: generators + seeds; labels are always their partition, so the state
+    // can be restored exactly from a copy of the first two.
+    stats.energy = arena.scratch(|s| partition(s, &ctx, &generators[..m], &seeds[..m], labels))?;
+    let mut st = State {
+        labels,
+        generators,
+        seeds,
+    };
+    let mut pass = |st: &mut State, m: usize, count: u32, stats: &mut ClusterStats| {
+        passes(arena, &ctx, st, m, count, stats, progress, planned)
+    };
+    pass(&mut st, m, params.iterations, &mut stats)?;
+    let mut err2 = split::max_error2(&ctx, st.labels, &st.generators[..m]);
+    if params.tolerance > 0.0 && params.split_rounds > 0 {
+        let backup_g = arena.try_alloc_slice::<V3>(cap, [0.0; 3])?;
+        let backup_s = arena.try_alloc_slice::<u32>(cap, 0)?;
+        let mut limit = usize::MAX;
+        let mut relax = true;
+        let mut attempts = 0;
+        while attempts < params.split_rounds && err2 > tol2 && m < cap {
+            attempts += 1;
+            backup_g[..m].copy_from_slice(&st.generators[..m]);
+            backup_s[..m].copy_from_slice(&st.seeds[..m]);
+            let added = arena.scratch(|s| {
+                split::try_split_in(
+                    s,
+                    &ctx,
+                    st.labels,
+                    st.generators,
+                    st.seeds,
+                    m,
+                    cap,
+                    tol2,
+                    limit,
+                )
+            })?;
+            if added == 0 {
+                break;
+            }
+            let grown = m + added;
+            stats.energy = arena.scratch(|s| {
+                partition(
+                    s,
+                    &ctx,
+                    &st.generators[..grown],
+                    &st.seeds[..grown],
+                    st.labels,
+                )
+            })?;
+            if relax {
+                pass(&mut st, grown, params.split_iterations, &mut stats)?;
+            }
+            let after = split::max_error2(&ctx, st.labels, &st.generators[..grown]);
+            if after <= err2 {
+                // Accepted: the maximum error never grows from one batch to the next.
+                let r = stats.split_rounds as usize;
+                if r < ROUNDS_KEPT {
+                    stats.error_per_round[r] = relative(err2, diag);
+                }
+                stats.split_rounds += 1;
+                stats.splits += added as u32;
+                m = grown;
+                err2 = after;
+                limit = usize::MAX;
+                relax = true;
+            } else {
+                // Rejected: restore the state exactly. Retry the same batch without
+                // relaxation (only the new generators' regions change), then with
+                // half the batch.
+                st.generators[..m].copy_from_slice(&backup_g[..m]);
+                st.seeds[..m].copy_from_slice(&backup_s[..m]);
+                stats.energy = arena.scratch(|s| {
+                    partition(s, &ctx, &st.generators[..m], &st.seeds[..m], st.labels)
+                })?;
+                stats.rejected_batches += 1;
+                if relax {
+                    relax = false;
+                } else {
+                    limit = added / 2;
+                    if limit == 0 {
+                        break;
+                    }
+                }
+            }
+        }
+    }
+    stats.max_error = relative(err2, diag);
+    let r = stats.split_rounds as usize;
+    if r < ROUNDS_KEPT {
+        stats.error_per_round[r] = stats.max_error;
+    }
+    stats.clusters = m as u32;
+    tick(progress, Stage::Clustering, planned as u64, planned as u64)?;
+    let State {
+        labels,
+        generators,
+        seeds,
+    } = st;
+    Ok(Clusters {
+        labels,
+        generators: &generators[..m],
+        seeds: &seeds[..m],
+        stats,
+    })
+}
+
+/// Labels, generators and seeds of a run.
+struct State<'x> {
+    labels: &'x mut [u32],
+    generators: &'x mut [V3],
+    seeds: &'x mut [u32],
+}
+
+/// Up to `count` update + partition passes over the first `m` clusters; stops
+/// early when no generator moves.
+#[allow(clippy::too_many_arguments)]
+fn passes(
+    arena: &Arena,
+    ctx: &Ctx,
+    st: &mut State,
+    m: usize,
+    count: u32,
+    stats: &mut ClusterStats,
+    progress: &mut dyn Progress,
+    planned: u32,
+) -> Result<()> {
+    stats.converged = false;
+    for _ in 0..count.max(1) {
+        let moved = arena.scratch(|s| {
+            update(
+                s,
+                ctx,
+                st.labels,
+                &mut st.generators[..m],
+                &mut st.seeds[..m],
+            )
+        })?;
+        stats.passes += 1;
+        tick(
+            progress,
+            Stage::Clustering,
+            stats.passes as u64,
+            planned as u64,
+        )?;
+        if !moved {
+            stats.converged = true;
+            break;
+        }
+        stats.energy =
+            arena.scratch(|s| partition(s, ctx, &st.generators[..m], &st.seeds[..m], st.labels))?;
+    }
+    Ok(())
+}
+
+fn relative(err2: f32, diag: f32) -> f32 {
+    if diag > 0.0 {
+        libm::sqrtf(err2.max(0.0)) / diag
+    } else {
+        0.0
+    }
+}
+
+fn find(parent: &mut [u32], mut i: u32) -> u32 {
+    while parent[i as usize] != i {
+        let p = parent[i as usize];
+        parent[i as usize] = parent[p as usize];
+        i = p;
+    }
+    i
+}
+
+/// Component root of every point (the smallest index of its component) by
+/// union-find over the k-NN edges, in scratch. Returns the roots and their count.
+fn components<'s>(s: &'s Scratch, nb: &Neighbours) -> Result<(&'s mut [u32], u32)> {
+    let n = nb.len();
+    let parent = s.try_alloc_slice::<u32>(n, 0)?;
+    for (i, p) in parent.iter_mut().enumerate() {
+        *p = i as u32;
+    }
+    for i in 0..n {
+        for &j in nb.of(i) {
+            let (a, b) = (find(parent, i as u32), find(parent, j));
+            if a != b {
+                // The smaller index becomes the root, whatever the edge order.
+                let (lo, hi) = if a < b { (a, b) } else { (b, a) };
+                parent[hi as usize] = lo;
+            }
+        }
+    }
+    let mut count = 0;
+    for i in 0..n {
+        parent[i] = find(parent, i as u32);
+        if parent[i] == i as u32 {
+            count += 1;
+        }
+    }
+    Ok((parent, count))
+}
+
+/// One seed in each component (a uniformly random member), then uniform draws
+/// without replacement from all points until `seeds` is full. `seeds.len()` must
+/// be at least the number of components.
+fn initial_seeds(s: &Scratch, nb: &Neighbours, seed: u64, seeds: &mut [u32]) -> Result<()> {
+    let n = nb.len();
+    let (root, _) = components(s, nb)?;
+    let mut rng = Rng::new(seed);
+    // A random permutation of the points (Fisher-Yates).
+    let order = s.try_alloc_slice::<u32>(n, 0)?;
+    for (i, o) in order.iter_mut().enumerate() {
+        *o = i as u32;
+    }
+    for i in 0..n {
+        let j = i + rng.below((n - i) as u32) as usize;
+        order.swap(i, j);
+    }
+    // `mark[root]`: component seeded; `mark[p] | 2`: point chosen.
+    let mark = s.try_alloc_slice::<u8>(n, 0)?;
+    let mut count = 0usize;
+    for &p in order.iter() {
+        let r = root[p as usize] as usize;
+        if mark[r] & 1 == 0 && count < seeds.len() {
+            mark[r] |= 1;
+            mark[p as usize] |= 2;
+            seeds[count] = p;
+            count += 1;
+        }
+    }
+    for &p in order.iter() {
+        if count >= seeds.len() {
+            break;
+        }
+        if mark[p as usize] & 2 == 0 {
+            mark[p as usize] |= 2;
+            seeds[count] = p;
+            count += 1;
+        }
+    }
+    Ok(())
+}
+
+/// Min-heap of packed `(cost bits << 32 | point)` keys over an arena slice.
+struct Heap<'s> {
+    keys: &'s mut [u64],
+    len: usize,
+}
+
+impl Heap<'_> {
+    fn push(&mut self, key: u64) -> bool {
+        if self.len == self.keys.len() {
+            return false;
+        }
+        let mut i = self.len;
+        self.keys[i] = key;
+        self.len += 1;
+        while i > 0 {
+            let parent = (i - 1) / 2;
+            if self.keys[parent] <= self.keys[i] {
+                break;
+            }
+            self.keys.swap(parent, i);
+            i = parent;
+        }
+        true
+    }
+
+    fn pop(&mut self) -> Option<u64> {
+        if self.len == 0 {
+            return None;
+        }
+        let top = self.keys[0];
+        self.len -= 1;
+        self.keys[0] = self.keys[self.len];
+        self.sift_down(0);
+        Some(top)
+    }
+
+    fn sift_down(&mut self, mut i: usize) {
+        loop {
+            let (l, r) = (2 * i + 1, 2 * i + 2);
+            let mut m = i;
+            if l < self.len && self.keys[l] < self.keys[m] {
+                m = l;
+            }
+            if r < self.len && self.keys[r] < self.keys[m] {
+                m = r;
+            }
+            if m == i {
+                return;
+            }
+            self.keys.swap(i, m);
+            i = m;
+        }
+    }
+
+    /// Keep only entries for which `live` holds, then restore the heap order.
+    fn retain(&mut self, mut live: impl FnMut(u64) -> bool) {
+        let mut w = 0;
+        for r in 0..self.len {
+            let k = self.keys[r];
+            if live(k) {
+                self.keys[w] = k;
+                w += 1;
+            }
+        }
+        self.len = w;
+        for i in (0..self.len / 2).rev() {
+            self.sift_down(i);
+        }
+    }
+}
+
+#[inline]
+fn key(cost: f32, point: u32) -> u64 {
+    // Non-negative finite floats order like their bit patterns; anything else
+    // (never produced from finite input) sorts last.
+    let bits = if cost >= 0.0 && cost.is_finite() {
+        cost.to_bits()
+    } else if cost < 0.0 {
+        0
+    } else {
+        f32::INFINITY.to_bits()
+    };
+    (bits as u64) << 32 | point as u64
+}
+
+/// Region growing from `seeds` (seed Eq. 4). Returns the total energy.
+pub(crate) fn partition(
+    s: &Scratch,
+    ctx: &Ctx,
+    generators: &[V3],
+    seeds: &[u32],
+    labels: &mut [u32],
+) -> Result<f64> {
+    let n = labels.len();
+    labels.fill(NONE);
+    let mut heap = Heap {
+        keys: s.try_alloc_slice::<u64>(n, 0)?,
+        len: 0,
+    };
+    // Cost of each point's tentative label, so a rival cluster is compared without
+    // recomputing it.
+    let best = s.try_alloc_slice::<f32>(n, f32::INFINITY)?;
+    // Seeds are final before anything grows, so no cluster can lose its seed.
+    for (j, &sd) in seeds.iter().enumerate() {
+        labels[sd as usize] = j as u32 | FINAL;
+    }
+    let mut energy = 0.0f64;
+    for &sd in seeds {
+        energy += grow_from(ctx, generators, labels, best, &mut heap, sd as usize, 0.0);
+    }
+    while let Some(top) = heap.pop() {
+        let q = (top & 0xFFFF_FFFF) as usize;
+        if labels[q] & FINAL != 0 {
+            continue;
+        }
+        labels[q] |= FINAL;
+        let cost = f32::from_bits((top >> 32) as u32);
+        energy += grow_from(ctx, generators, labels, best, &mut heap, q, cost);
+    }
+    // Every component holds a seed, so every point was reached; a point that was
+    // not (impossible by construction) would keep NONE and be caught by tests.
+    for l in labels.iter_mut() {
+        *l &= !FINAL;
+    }
+    Ok(energy)
+}
+
+/// Offer the cluster of the final point `q` to its unfinished neighbours.
+/// Returns `q`'s own cost, for the energy.
+fn grow_from(
+    ctx: &Ctx,
+    generators: &[V3],
+    labels: &mut [u32],
+    best: &mut [f32],
+    heap: &mut Heap,
+    q: usize,
+    cost: f32,
+) -> f64 {
+    let label = labels[q] & !FINAL;
+    let c = generators[label as usize];
+    for nbr in ctx.nb.symmetric(q) {
+        let t = labels[nbr as usize];
+        if t & FINAL != 0 || t == label {
+            continue;
+        }
+        let e = ctx.cost(nbr as usize, c);
+        if t == NONE || e < best[nbr as usize] {
+            labels[nbr as usize] = label;
+            best[nbr as usize] = e;
+            if !heap.push(key(e, nbr)) {
+                // Full: drop stale entries (final points, superseded costs).
+                heap.retain(|k| {
+                    let p = (k & 0xFFFF_FFFF) as usize;
+                    labels[p] & FINAL == 0 && key(best[p], p as u32) == k
+                });
+                // Live entries <= unfinished points < n: there is room now.
+                heap.push(key(e, nbr));
+            }
+        }
+    }
+    cost as f64
+}
+
+/// Recompute every generator as its cluster's QEM optimum and pick the next seeds.
+/// Returns whether any generator moved.
+pub(crate) fn update(
+    s: &Scratch,
+    ctx: &Ctx,
+    labels: &[u32],
+    generators: &mut [V3],
+    seeds: &mut [u32],
+) -> Result<bool> {
+    let m = generators.len();
+    let quadrics = s.try_alloc_slice::<Quadric>(m, Quadric::default())?;
+    let sums = s.try_alloc_slice::<[f64; 4]>(m, [0.0; 4])?;
+    for (i, &l) in labels.iter().enumerate() {
+        let j = l as usize;
+        if j >= m {
+            continue;
+        }
+        ctx.planes.accumulate_diffused(ctx.nb, i, &mut quadrics[j]);
+        let p = ctx.points[i];
+        let acc = &mut sums[j];
+        acc[0] += p[0] as f64;
+        acc[1] += p[1] as f64;
+        acc[2] += p[2] as f64;
+        acc[3] += 1.0;
+    }
+    let mut moved = false;
+    for j in 0..m {
+        let count = sums[j][3];
+        if count == 0.0 {
+            continue;
+        }
+        let centre = [sums[j][0] / count, sums[j][1] / count, sums[j][2] / count];
+        let (x, _rank) = quadrics[j].minimizer(ctx.lambda_w as f64 * count, centre);
+        let g = [x[0] as f32, x[1] as f32, x[2] as f32];
+        if g.iter().all(|v| v.is_finite()) && g != generators[j] {
+            generators[j] = g;
+            moved = true;
+        }
+    }
+    // Next seeds: the member of least cost to the new generator, ties by index.
+    let best = s.try_alloc_slice::<f32>(m, f32::INFINITY)?;
+    for (i, &l) in labels.iter().enumerate() {
+        let j = l as usize;
+        if j >= m {
+            continue;
+        }
+        let e = ctx.cost(i, generators[j]);
+        if e < best[j] || (best[j] == f32::INFINITY && e == f32::INFINITY) {
+            best[j] = e;
+            seeds[j] = i as u32;
+        }
+    }
+    Ok(moved)
+}

@@ -1,0 +1,615 @@
+//! k nearest neighbours from a sparse uniform grid, and the symmetrised graph.
+//!
+//! The grid stores only occupied cells: points are sorted by cell key, distinct keys
+//! go into a table with the start of each cell's run, and an open-addressing hash of
+//! the occupied *columns* `(x, y)` answers "which cells are in column (x, y)" in
+//! O(1) (a column's cells are contiguous, sorted by z). A query scans
+//! rings of cells around the point's own cell (Chebyshev distance 0, 1, 2, ...) and
+//! stops once the k-th best distance is below `r * h`: every point not yet seen lies
+//! at least that far away, so the answer is *certified* exact, not approximate.
+//! Ties are broken by point index, so the result equals a brute-force sort of
+//! `(distance², index)`.
+//!
+//! Memory: the result is `4 k` bytes per point (plus the reverse-edge table below);
+//! the grid is scratch, about `16 + 40 / occupancy` bytes per point while queries run.
+//! Cost: O(n log n) for the sort plus O(n k · points per ring) for the queries;
+//! a point far from everything falls back to a linear scan, so no query does more
+//! than O(n) work.
+//!
+//! The symmetrised graph (`i ~ j` when either is among the other's k nearest) is
+//! `knn(i)` plus the *reverse-only* edges (`i` is in `knn(j)` but `j` is not in
+//! `knn(i)`), kept in a compressed table: typically a third of `k` per point.
+
+use crate::arena::Arena;
+use crate::error::{Error, Result};
+use crate::math::{dist2, V3};
+use crate::params::MAX_K;
+use crate::progress::{tick, Progress, Stage};
+
+/// The k-nearest-neighbour graph and its symmetrisation. See the module docs.
+#[derive(Clone, Copy)]
+pub struct Neighbours<'a> {
+    /// Neighbours per point.
+    pub k: usize,
+    /// Row `i` (`knn[i*k .. i*k+k]`) lists the k nearest other points of `i`,
+    /// nearest first, ties by index.
+    pub knn: &'a [u32],
+    /// `rev[rev_start[i] .. rev_start[i+1]]`: points `j` with `i` in `knn(j)` but
+    /// `j` not in `knn(i)`, ascending.
+    pub rev_start: &'a [u32],
+    /// See `rev_start`.
+    pub rev: &'a [u32],
+    /// Mean distance from a point to its k nearest neighbours (average spacing).
+    pub spacing: f32,
+    /// Queries that fell back to a linear scan (isolated points).
+    pub linear_scans: u32,
+}
+
+impl<'a> Neighbours<'a> {
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        self.knn.len().checked_div(self.k).unwrap_or(0)
+    }
+
+    /// Whether the graph has no points.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The k nearest neighbours of `i`, nearest first.
+    #[inline]
+    pub fn of(&self, i: usize) -> &'a [u32] {
+        &self.knn[i * self.k..(i + 1) * self.k]
+    }
+
+    /// The reverse-only neighbours of `i`.
+    #[inline]
+    pub fn reverse_of(&self, i: usize) -> &'a [u32] {
+        &self.rev[self.rev_start[i] as usize..self.rev_start[i + 1] as usize]
+    }
+
+    /// Every neighbour of `i` in the symmetrised graph, each once.
+    #[inline]
+    pub fn symmetric(&self, i: usize) -> impl Iterator<Item = u32> + 'a {
+        self.of(i).iter().chain(self.reverse_of(i)).copied()
+    }
+}
+
+/// Cell edge length and counts of the sparse grid.
+struct Grid<'s> {
+    lo: V3,
+    h: f32,
+    dims: [u32; 3],
+    /// Point indices sorted by cell.
+    order: &'s [u32],
+    /// Positions in `order`, for cache-friendly scans.
+    sorted: &'s [V3],
+    cell_keys: &'s [u64],
+    cell_start: &'s [u32],
+    /// Open-addressing table from a column key (`x, y` of a cell) to the first cell
+    /// of that column: the cells of one column are contiguous, ordered by `z`.
+    /// Entries `(key, first cell)`, `EMPTY_KEY` when free; length a power of 2.
+    columns: &'s [(u64, u32)],
+}
+
+const EMPTY_KEY: u64 = u64::MAX;
+
+#[inline]
+fn pack(c: [u32; 3]) -> u64 {
+    (c[0] as u64) << 42 | (c[1] as u64) << 21 | c[2] as u64
+}
+
+#[inline]
+fn hash(key: u64) -> u64 {
+    let mut z = key.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    z ^= z >> 29;
+    z
+}
+
+impl Grid<'_> {
+    #[inline]
+    fn cell_of(&self, p: V3) -> [u32; 3] {
+        let mut c = [0u32; 3];
+        for a in 0..3 {
+            let t = (p[a] - self.lo[a]) / self.h;
+            // `as` saturates (NaN -> 0): always a valid cell, never a panic.
+            c[a] = (t as u32).min(self.dims[a] - 1);
+        }
+        c
+    }
+
+    /// First cell of column `(x, y)`, if any cell of it is occupied.
+    #[inline]
+    fn column(&self, x: u32, y: u32) -> Option<usize> {
+        let key = pack([x, y, 0]) >> 21;
+        let mask = self.columns.len() - 1;
+        let mut slot = hash(key) as usize & mask;
+        loop {
+            let (k, first) = self.columns[slot];
+            if k == key {
+                return Some(first as usize);
+            }
+            if k == EMPTY_KEY {
+                return None;
+            }
+            slot = (slot + 1) & mask;
+        }
+    }
+}
+
+/// The k best `(d², index)` pairs seen so far, kept sorted (k <= 32).
+struct Best {
+    d2: [f32; MAX_K],
+    idx: [u32; MAX_K],
+    len: usize,
+    k: usize,
+}
+
+impl Best {
+    fn new(k: usize) -> Self {
+        Best {
+            d2: [0.0; MAX_K],
+            idx: [0; MAX_K],
+            len: 0,
+            k,
+        }
+    }
+
+    #[inline]
+    fn worse(a: (f32, u32), b: (f32, u32)) -> bool {
+        a.0 > b.0 || (a.0 == b.0 && a.1 > b.1)
+    }
+
+    #[inline]
+    fn offer(&mut self, d2: f32, j: u32) {
+        if self.len == self.k
+            && !Self::worse((self.d2[self.len - 1], self.idx[self.len - 1]), (d2, j))
+        {
+            return;
+        }
+        let mut pos = if self.len < self.k {
+            self.len
+        } else {
+            self.len - 1
+        };
+        while pos > 0 && Self::worse((self.d2[pos - 1], self.idx[pos - 1]), (d2, j)) {
+            self.d2[pos] = self.d2[pos - 1];
+            self.idx[pos] = self.idx[pos - 1];
+            pos -= 1;
+        }
+        self.d2[pos] = d2;
+        self.idx[pos] = j;
+        if self.len < self.k {
+            self.len += 1;
+        }
+    }
+
+    fn kth(&self) -> f32 {
+        if self.len < self.k {
+            f32::INFINITY
+        } else {
+            self.d2[self.k - 1]
+        }
+    }
+}
+
+/// Bytes of scratch the grid needs for `n` points (upper bound, any occupancy).
+pub fn grid_scratch_bytes(n: usize) -> usize {
+    // order 4 + sorted 12, then the larger of the sort keys (8) and the tables: cell
+    // keys 8 + cell starts 4 + columns up to 4 entries of 16 bytes per column
+    // (a power of two >= 2 columns), with cells and columns <= n; plus slack.
+    n * (4 + 12) + (n * 8).max(n * (8 + 4 + 64)) + 4 * 64
+}
+
+/// Compute the k nearest neighbours of every point and the reverse-edge table.
+/// `points` must be finite (checked by the caller) and `k < points.len()`.
+pub fn try_neighbours_in<'a>(
+    arena: &'a Arena,
+    points: &[V3],
+    k: usize,
+    progress: &mut dyn Progress,
+) -> Result<Neighbours<'a>> {
+    let n = points.len();
+    if k == 0 || k > MAX_K || k >= n {
+        return Err(Error::BadNeighbours { k, points: n });
+    }
+    tick(progress, Stage::Neighbours, 0, n as u64)?;
+    tick(progress, Stage::Neighbours, 0, n as u64)?;
+    let knn = arena.try_alloc_slice::<u32>(n * k, 0)?;
+    let mut total_dist = 0.0f64;
+    let mut linear_scans = 0u32;
+    arena.scratch(|s| -> Result<()> {
+        let grid = build_grid(s, points, k)?;
+        let n_cells = grid.cell_keys.len();
+        let mut done = 0u64;
+        for cell in 0..n_cells {
+            let (a, b) = (
+                grid.cell_start[cell] as usize,
+                grid.cell_start[cell + 1] as usize,
+            );
+            for slot in a..b {
+                let i = grid.order[slot] as usize;
+                let p = grid.sorted[slot];
+                let mut best = Best::new(k);
+                if !ring_search(&grid, p, i as u32, &mut best) {
+                    linear_scans += 1;
+                    best = Best::new(k);
+                    for (t, &q) in grid.sorted.iter().enumerate() {
+                        let j = grid.order[t];
+                        if j as usize != i {
+                            best.offer(dist2(p, q), j);
+                        }
+                    }
+                }
+                let row = &mut knn[i * k..(i + 1) * k];
+                row.copy_from_slice(&best.idx[..k]);
+                for &d2 in &best.d2[..k] {
+                    total_dist += libm::sqrt(d2 as f64);
+                }
+                done += 1;
+                if done % 8192 == 0 {
+                    tick(progress, Stage::Neighbours, done, n as u64)?;
+                }
+            }
+        }
+        Ok(())
+    })?;
+    let (rev_start, rev) = reverse_edges_in(arena, knn, k)?;
+    tick(progress, Stage::Neighbours, n as u64, n as u64)?;
+    Ok(Neighbours {
+        k,
+        knn,
+        rev_start,
+        rev,
+        spacing: (total_dist / (n * k) as f64) as f32,
+        linear_scans,
+    })
+}
+
+/// Scan rings until the k-th neighbour is certified. Returns false when the rings
+/// would cost more than a linear scan (the caller then does one).
+fn ring_search(grid: &Grid, p: V3, self_idx: u32, best: &mut Best) -> bool {
+    let c = grid.cell_of(p);
+    let mut inset = f32::INFINITY;
+    for a in 0..3 {
+        let lo = grid.lo[a] + c[a] as f32 * grid.h;
+        inset = inset.min(p[a] - lo).min(lo + grid.h - p[a]);
+    }
+    // A point clamped into the last cell (or rounding at a face) may sit outside
+    // its cell by a hair: never let the inset go negative.
+    let inset = inset.max(0.0) * (1.0 - 1e-4);
+    let n_cells = grid.cell_keys.len() as u64;
+    let max_r = grid.dims.iter().copied().max().unwrap_or(1) as i64;
+    let mut r: i64 = 0;
+    loop {
+        // Cells visited up to ring r: (2r+1)^3. Stop when that exceeds the work of
+        // scanning everything (isolated points, very uneven clouds).
+        let side = (2 * r + 1) as u64;
+        if r > 1 && side * side * side > 8 * n_cells + 64 {
+            return false;
+        }
+        visit_ring(grid, c, r, |slot| {
+            let j = grid.order[slot];
+            if j != self_idx {
+                best.offer(dist2(p, grid.sorted[slot]), j);
+            }
+        });
+        // Unseen points lie outside the cube of visited cells: at least `reach` away
+        // (r cells plus p's distance to its own cell's nearest face). The margin
+        // absorbs f32 rounding.
+        let reach = r as f32 * grid.h + inset;
+        if best.kth() < reach * reach * (1.0 - 1e-5) || r >= max_r {
+            return true;
+        }
+        r += 1;
+    }
+}
+
+/// Call `f` with the sorted-slot of every point in the cells at Chebyshev distance
+/// exactly `r` from cell `c`, clipped to the grid. One column lookup per `(x, y)`.
+fn visit_ring(grid: &Grid, c: [u32; 3], r: i64, mut f: impl FnMut(usize)) {
+    let lo = |a: usize| (c[a] as i64 - r).max(0);
+    let hi = |a: usize| (c[a] as i64 + r).min(grid.dims[a] as i64 - 1);
+    let (z_lo, z_hi) = (lo(2), hi(2));
+    let (z_face_lo, z_face_hi) = (c[2] as i64 - r, c[2] as i64 + r);
+    for x in lo(0)..=hi(0) {
+        let ex = (x - c[0] as i64).abs() == r;
+        for y in lo(1)..=hi(1) {
+            let Some(first) = grid.column(x as u32, y as u32) else {
+                continue;
+            };
+            // On the ring's side walls the whole z range is new; inside, only the
+            // two z faces belong to ring r.
+            let wall = ex || (y - c[1] as i64).abs() == r;
+            let column = grid.cell_keys[first] >> 21;
+            let mut cell = first;
+            while cell < grid.cell_keys.len() && grid.cell_keys[cell] >> 21 == column {
+                let z = (grid.cell_keys[cell] & 0x1F_FFFF) as i64;
+                if z > z_hi {
+                    break;
+                }
+                let take = if wall {
+                    z >= z_lo
+                } else {
+                    z == z_face_lo || z == z_face_hi
+                };
+                if take {
+                    for slot in grid.cell_start[cell]..grid.cell_start[cell + 1] {
+                        f(slot as usize);
+                    }
+                }
+                cell += 1;
+            }
+        }
+    }
+}
+
+fn build_grid<'s>(
+    s: &'s crate::arena::Scratch<'_, '_>,
+    points: &[V3],
+    k: usize,
+) -> Result<Grid<'s>> {
+    let n = points.len();
+    let mut lo = [f32::INFINITY; 3];
+    let mut hi = [f32::NEG_INFINITY; 3];
+    for p in points {
+        for a in 0..3 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+    }
+    let ext = [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]];
+    let diag = libm::sqrtf(ext[0] * ext[0] + ext[1] * ext[1] + ext[2] * ext[2]);
+    let max_ext = ext[0].max(ext[1]).max(ext[2]);
+    let order = s.try_alloc_slice::<u32>(n, 0)?;
+    let sorted = s.try_alloc_slice::<V3>(n, [0.0; 3])?;
+    let mut grid = Grid {
+        lo,
+        h: 1.0,
+        dims: [1; 3],
+        order: &[],
+        sorted: &[],
+        cell_keys: &[],
+        cell_start: &[],
+        columns: &[],
+    };
+    // Sort by cell in a nested scope: the keys are dropped before the tables are
+    // built, which keeps this stage's peak below the clustering stage's.
+    let cells = s.scratch(|inner| -> Result<usize> {
+        let keys = inner.try_alloc_slice::<u64>(n, 0)?;
+        // Aim for about k/2 points per occupied cell, so one ring usually
+        // certifies. The first guess assumes a surface (occupied cells ~ area /
+        // h^2), then the measured occupancy corrects it.
+        let target = (k as f32 * 0.5).max(2.0);
+        let min_h = (max_ext / (1u32 << 20) as f32).max(f32::MIN_POSITIVE);
+        let mut h = (diag * libm::sqrtf(target / n as f32)).max(min_h);
+        if !(h.is_finite() && h > 0.0) {
+            h = 1.0;
+        }
+        let mut cells = 0usize;
+        for attempt in 0..4 {
+            grid.h = h;
+            for a in 0..3 {
+                grid.dims[a] = ((ext[a] / h) as u32).saturating_add(1).min(1 << 21);
+            }
+            for (i, p) in points.iter().enumerate() {
+                keys[i] = pack(grid.cell_of(*p));
+                order[i] = i as u32;
+            }
+            order.sort_unstable_by(|&a, &b| (keys[a as usize], a).cmp(&(keys[b as usize], b)));
+            cells = 1 + order
+                .windows(2)
+                .filter(|w| keys[w[0] as usize] != keys[w[1] as usize])
+                .count();
+            let ratio = target / (n as f32 / cells as f32);
+            if attempt == 3 || (0.5..=2.0).contains(&ratio) {
+                break;
+            }
+            // Occupancy of a surface grows with h^2, of a volume with h^3: the
+            // square root of the ratio moves h the right way in both cases.
+            let next = (h * libm::sqrtf(ratio).clamp(0.25, 4.0)).max(min_h);
+            if next == h {
+                break;
+            }
+            h = next;
+        }
+        Ok(cells)
+    })?;
+    for (slot, &i) in order.iter().enumerate() {
+        sorted[slot] = points[i as usize];
+    }
+    let cell_keys = s.try_alloc_slice::<u64>(cells, 0)?;
+    let cell_start = s.try_alloc_slice::<u32>(cells + 1, 0)?;
+    let mut c = 0usize;
+    let mut n_columns = 0usize;
+    for slot in 0..n {
+        let key = pack(grid.cell_of(sorted[slot]));
+        if slot == 0 || key != cell_keys[c - 1] {
+            if c == 0 || key >> 21 != cell_keys[c - 1] >> 21 {
+                n_columns += 1;
+            }
+            cell_keys[c] = key;
+            cell_start[c] = slot as u32;
+            c += 1;
+        }
+    }
+    cell_start[cells] = n as u32;
+    let columns =
+        s.try_alloc_slice::<(u64, u32)>((2 * n_columns).next_power_of_two(), (EMPTY_KEY, 0))?;
+    let mask = columns.len() - 1;
+    for (cell, &key) in cell_keys.iter().enumerate() {
+        let col = key >> 21;
+        if cell > 0 && cell_keys[cell - 1] >> 21 == col {
+            continue;
+        }
+        let mut slot = hash(col) as usize & mask;
+        while columns[slot].0 != EMPTY_KEY {
+            slot = (slot + 1) & mask;
+        }
+        columns[slot] = (col, cell as u32);
+    }
+    grid.order = order;
+    grid.sorted = sorted;
+    grid.cell_keys = cell_keys;
+    grid.cell_start = cell_start;
+    grid.columns = columns;
+    Ok(grid)
+}
+
+/// Build the reverse-only edge table: two passes over the k-NN rows, O(n k^2).
+fn reverse_edges_in<'a>(arena: &'a Arena, knn: &[u32], k: usize) -> Result<(&'a [u32], &'a [u32])> {
+    let n = knn.len() / k;
+    let rev_start = arena.try_alloc_slice::<u32>(n + 1, 0)?;
+    let is_mutual = |i: usize, j: usize| knn[j * k..(j + 1) * k].contains(&(i as u32));
+    for i in 0..n {
+        for &j in &knn[i * k..(i + 1) * k] {
+            if !is_mutual(i, j as usize) {
+                rev_start[j as usize + 1] += 1;
+            }
+        }
+    }
+    for i in 0..n {
+        rev_start[i + 1] += rev_start[i];
+    }
+    let total = rev_start[n] as usize;
+    let rev = arena.try_alloc_slice::<u32>(total, 0)?;
+    // Fill in increasing i, so each list comes out ascending. `cursor` reuses the
+    // scratch end of the arena.
+    arena.scratch(|s| -> Result<()> {
+        let cursor = s.try_alloc_copy::<u32>(&rev_start[..n])?;
+        for i in 0..n {
+            for &j in &knn[i * k..(i + 1) * k] {
+                if !is_mutual(i, j as usize) {
+                    let c = &mut cursor[j as usize];
+                    rev[*c as usize] = i as u32;
+                    *c += 1;
+                }
+            }
+        }
+        Ok(())
+    })?;
+    Ok((rev_start, rev))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::Rng;
+    use crate::progress::Silent;
+    use core::mem::MaybeUninit;
+    use std::vec;
+    use std::vec::Vec;
+
+    fn brute(points: &[V3], k: usize) -> Vec<u32> {
+        let mut out = Vec::new();
+        for (i, &p) in points.iter().enumerate() {
+            let mut c: Vec<(f32, u32)> = points
+                .iter()
+                .enumerate()
+                .filter(|(j, _)| *j != i)
+                .map(|(j, &q)| (dist2(p, q), j as u32))
+                .collect();
+            c.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            out.extend(c[..k].iter().map(|x| x.1));
+        }
+        out
+    }
+
+    fn check(points: &[V3], k: usize) {
+        let mut buf = vec![MaybeUninit::uninit(); 64 * 1024 * 1024];
+        let arena = Arena::new(&mut buf);
+        let nb = try_neighbours_in(&arena, points, k, &mut Silent).unwrap();
+        let expect = brute(points, k);
+        assert_eq!(nb.knn, &expect[..], "k = {k}, n = {}", points.len());
+        // Symmetrised graph: j ~ i iff one is in the other's list, each once.
+        for i in 0..points.len() {
+            let mut sym: Vec<u32> = nb.symmetric(i).collect();
+            let len = sym.len();
+            sym.sort_unstable();
+            sym.dedup();
+            assert_eq!(sym.len(), len, "duplicate symmetric neighbour of {i}");
+            for j in 0..points.len() {
+                let linked = nb.of(i).contains(&(j as u32)) || nb.of(j).contains(&(i as u32));
+                assert_eq!(linked, sym.binary_search(&(j as u32)).is_ok(), "{i} ~ {j}");
+            }
+        }
+    }
+
+    fn random_cloud(n: usize, seed: u64) -> Vec<V3> {
+        let mut rng = Rng::new(seed);
+        (0..n)
+            .map(|_| core::array::from_fn(|_| rng.unit_f64() as f32 * 2.0 - 1.0))
+            .collect()
+    }
+
+    #[test]
+    fn knn_equals_brute_force_on_random_clouds() {
+        for (n, k, seed) in [(50, 1, 1), (300, 12, 2), (700, 32, 3), (13, 12, 4)] {
+            check(&random_cloud(n, seed), k);
+        }
+    }
+
+    #[test]
+    fn knn_equals_brute_force_on_clustered_clouds() {
+        // Tight blobs far apart, plus isolated points: exercises the ring growth
+        // and the linear-scan fallback.
+        let mut rng = Rng::new(7);
+        let mut pts = Vec::new();
+        for b in 0..5 {
+            let c = [b as f32 * 0.4 - 1.0, (b % 2) as f32, 0.3];
+            for _ in 0..120 {
+                pts.push(core::array::from_fn(|a| {
+                    c[a] + (rng.unit_f64() as f32 - 0.5) * 1e-3
+                }));
+            }
+        }
+        pts.push([1.0, 1.0, 1.0]);
+        pts.push([-1.0, -1.0, -1.0]);
+        check(&pts, 12);
+    }
+
+    #[test]
+    fn knn_equals_brute_force_with_many_duplicates_and_ties() {
+        // A lattice has many equal distances; every point appears three times.
+        let mut pts = Vec::new();
+        for x in 0..6 {
+            for y in 0..6 {
+                for _copy in 0..3 {
+                    pts.push([x as f32 * 0.1, y as f32 * 0.1, 0.0]);
+                }
+            }
+        }
+        check(&pts, 12);
+        check(&pts, 2);
+    }
+
+    #[test]
+    fn spacing_is_the_mean_neighbour_distance() {
+        // A square lattice of step 0.01: the 4 nearest are all at 0.01.
+        let mut pts = Vec::new();
+        for x in 0..40 {
+            for y in 0..40 {
+                pts.push([x as f32 * 0.01, y as f32 * 0.01, 0.5]);
+            }
+        }
+        let mut buf = vec![MaybeUninit::uninit(); 8 << 20];
+        let arena = Arena::new(&mut buf);
+        let nb = try_neighbours_in(&arena, &pts, 4, &mut Silent).unwrap();
+        // Corner and edge points also have their 4 nearest at 0.01 except corners
+        // (0.01, 0.01, then diagonal 0.01414 twice... no: two at 0.01, two at 0.02).
+        assert!((nb.spacing - 0.01).abs() < 2e-4, "{}", nb.spacing);
+    }
+
+    #[test]
+    fn bad_k_is_an_error() {
+        let pts = random_cloud(5, 1);
+        let mut buf = vec![MaybeUninit::uninit(); 1 << 16];
+        let arena = Arena::new(&mut buf);
+        for k in [0, 5, 6, 33] {
+            assert!(matches!(
+                try_neighbours_in(&arena, &pts, k, &mut Silent),
+                Err(Error::BadNeighbours { .. })
+            ));
+        }
+    }
+}

@@ -1,0 +1,80 @@
+//! Unit normals: the caller's when usable, otherwise PCA of the neighbourhood.
+//!
+//! PCA: the eigenvector of the smallest eigenvalue of the covariance of the point
+//! and its k neighbours, computed in `f64` around their centroid (O(k) per point,
+//! no memory). Orientation is irrelevant downstream (plane quadrics use `n nᵀ`), so
+//! none is computed.
+
+use crate::knn::Neighbours;
+use crate::math::{to_d3, Sym3, V3};
+
+/// A usable given normal: finite and not (near) zero. Returned unit length.
+pub fn usable(n: V3) -> Option<V3> {
+    let len2 = n[0] as f64 * n[0] as f64 + n[1] as f64 * n[1] as f64 + n[2] as f64 * n[2] as f64;
+    if !(len2.is_finite() && len2 > 1e-12) {
+        return None;
+    }
+    let inv = 1.0 / libm::sqrt(len2);
+    Some([
+        (n[0] as f64 * inv) as f32,
+        (n[1] as f64 * inv) as f32,
+        (n[2] as f64 * inv) as f32,
+    ])
+}
+
+/// PCA normal of point `i` over itself and its k nearest neighbours. A degenerate
+/// neighbourhood (all points equal) yields an arbitrary but deterministic unit
+/// vector; its weight is zero anyway (see `quadric`).
+pub fn pca(points: &[V3], nb: &Neighbours, i: usize) -> V3 {
+    pca_with_variation(points, nb, i).0
+}
+
+/// PCA normal and *surface variation* `λ0 / (λ0 + λ1 + λ2)` of the neighbourhood
+/// covariance: 0 on a plane, small on a smooth surface, up to 1/3 where the
+/// neighbourhood straddles a sharp feature or is pure noise.
+pub fn pca_with_variation(points: &[V3], nb: &Neighbours, i: usize) -> (V3, f32) {
+    let row = nb.of(i);
+    let m = (row.len() + 1) as f64;
+    let mut c = to_d3(points[i]);
+    for &j in row {
+        let q = to_d3(points[j as usize]);
+        for a in 0..3 {
+            c[a] += q[a];
+        }
+    }
+    for v in c.iter_mut() {
+        *v /= m;
+    }
+    let mut s = [0.0f64; 6];
+    let mut add = |p: V3| {
+        let d = [p[0] as f64 - c[0], p[1] as f64 - c[1], p[2] as f64 - c[2]];
+        s[0] += d[0] * d[0];
+        s[1] += d[0] * d[1];
+        s[2] += d[0] * d[2];
+        s[3] += d[1] * d[1];
+        s[4] += d[1] * d[2];
+        s[5] += d[2] * d[2];
+    };
+    add(points[i]);
+    for &j in row {
+        add(points[j as usize]);
+    }
+    let (vals, vecs) = Sym3(s).eigen();
+    let v = vecs[0];
+    let total = vals[0].max(0.0) + vals[1].max(0.0) + vals[2].max(0.0);
+    let variation = if total > 0.0 {
+        (vals[0].max(0.0) / total) as f32
+    } else {
+        0.0
+    };
+    ([v[0] as f32, v[1] as f32, v[2] as f32], variation)
+}
+
+/// The normal of point `i` and its surface variation: the given normal (variation
+/// 0) when usable, else PCA.
+pub fn normal_of(points: &[V3], given: Option<&[V3]>, nb: &Neighbours, i: usize) -> (V3, f32) {
+    match given.and_then(|g| g.get(i).copied()).and_then(usable) {
+        Some(n) => (n, 0.0),
+        None => pca_with_variation(points, nb, i),
+    }
+}

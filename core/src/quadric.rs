@@ -1,0 +1,308 @@
+//! Plane quadrics of the points (seed Eq. 1-2) and diffused quadrics (Eq. 3).
+//!
+//! A point's plane quadric is `Q_p = a_p · u uᵀ` with `u = (n, -n·p)` and support
+//! area `a_p = (mean k-NN distance)² / 2` (Eq. 2 as the reference implements it),
+//! scaled down where the PCA normal is unreliable (see [`confidence`]).
+//! It has rank one, so core stores its factor `√a_p · u` (4 × f32 = 16 bytes per
+//! point) rather than the 10 coefficients: the same quadric, 24 bytes per point
+//! less. The diffused quadric of Eq. 3, `Q_v(i) = Σ_{j ∈ N(i) ∪ {i}} Q_p(j)`, is
+//! evaluated from the factors when needed:
+//! `[c,1]ᵀ Q_v(i) [c,1] = Σ_j (√a_j u_j · [c,1])²`, 13 dot products at k = 12.
+//! Sums over clusters use the 10-coefficient [`Quadric`] in `f64`.
+
+use crate::arena::Arena;
+use crate::error::Result;
+use crate::knn::Neighbours;
+use crate::math::{dist2, Sym3, D3, V3};
+use crate::normals;
+use crate::progress::{tick, Progress, Stage};
+
+/// `√a · (n, -n·p)` for one point.
+pub type Plane = [f32; 4];
+
+/// Area-weighted planes of every point plus the scale of their diffused quadrics.
+#[derive(Clone, Copy)]
+pub struct Planes<'a> {
+    /// One factor per point.
+    pub planes: &'a [Plane],
+    /// Mean over points of the total area weight of the diffused quadric
+    /// (`trace` of its 3x3 block): the unit that turns squared distances into
+    /// QEM values. Zero only when every neighbourhood is degenerate.
+    pub mean_weight: f32,
+}
+
+/// `u · [c, 1]`.
+#[inline]
+pub fn plane_eval(u: Plane, c: V3) -> f32 {
+    u[0] * c[0] + u[1] * c[1] + u[2] * c[2] + u[3]
+}
+
+/// Area weight `a` of a stored factor (`n` is unit, so `|√a n|² = a`).
+#[inline]
+pub fn plane_weight(u: Plane) -> f32 {
+    u[0] * u[0] + u[1] * u[1] + u[2] * u[2]
+}
+
+impl Planes<'_> {
+    /// `[c,1]ᵀ Q_v(i) [c,1]`: the diffused QEM of point `i` at `c` (Eq. 3).
+    #[inline]
+    pub fn diffused_qem(&self, nb: &Neighbours, i: usize, c: V3) -> f32 {
+        let e = plane_eval(self.planes[i], c);
+        let mut sum = e * e;
+        for &j in nb.of(i) {
+            let e = plane_eval(self.planes[j as usize], c);
+            sum += e * e;
+        }
+        sum
+    }
+
+    /// Total area weight of point `i`'s diffused quadric.
+    #[inline]
+    pub fn diffused_weight(&self, nb: &Neighbours, i: usize) -> f32 {
+        let mut w = plane_weight(self.planes[i]);
+        for &j in nb.of(i) {
+            w += plane_weight(self.planes[j as usize]);
+        }
+        w
+    }
+
+    /// Add `Q_v(i)` into `q`.
+    #[inline]
+    pub fn accumulate_diffused(&self, nb: &Neighbours, i: usize, q: &mut Quadric) {
+        q.add_plane(self.planes[i]);
+        for &j in nb.of(i) {
+            q.add_plane(self.planes[j as usize]);
+        }
+    }
+}
+
+/// Compute every point's plane factor. O(n k) time; 16 bytes per point.
+pub fn try_planes_in<'a>(
+    arena: &'a Arena,
+    points: &[V3],
+    given_normals: Option<&[V3]>,
+    nb: &Neighbours,
+    progress: &mut dyn Progress,
+) -> Result<Planes<'a>> {
+    let n = points.len();
+    tick(progress, Stage::Quadrics, 0, n as u64)?;
+    let planes = arena.try_alloc_slice::<Plane>(n, [0.0; 4])?;
+    for i in 0..n {
+        let p = points[i];
+        let row = nb.of(i);
+        let mut mean = 0.0f64;
+        for &j in row {
+            mean += libm::sqrt(dist2(p, points[j as usize]) as f64);
+        }
+        mean /= row.len().max(1) as f64;
+        let (nrm, variation) = normals::normal_of(points, given_normals, nb, i);
+        let area = mean * mean / 2.0 * confidence(variation);
+        let s = libm::sqrt(area);
+        let d = -(nrm[0] as f64 * p[0] as f64
+            + nrm[1] as f64 * p[1] as f64
+            + nrm[2] as f64 * p[2] as f64);
+        planes[i] = [
+            (s * nrm[0] as f64) as f32,
+            (s * nrm[1] as f64) as f32,
+            (s * nrm[2] as f64) as f32,
+            (s * d) as f32,
+        ];
+        if i % 8192 == 8191 {
+            tick(progress, Stage::Quadrics, i as u64, n as u64)?;
+        }
+    }
+    let planes: &'a [Plane] = planes;
+    let mut total = 0.0f64;
+    let view = Planes {
+        planes,
+        mean_weight: 0.0,
+    };
+    for i in 0..n {
+        total += view.diffused_weight(nb, i) as f64;
+    }
+    tick(progress, Stage::Quadrics, n as u64, n as u64)?;
+    Ok(Planes {
+        planes,
+        mean_weight: (total / n.max(1) as f64) as f32,
+    })
+}
+
+/// Surface variation at which a plane's weight halves.
+pub const VARIATION_HALF_WEIGHT: f64 = 0.01;
+
+/// Weight factor of a plane whose neighbourhood has surface variation `v`:
+/// `1 / (1 + (v / 0.01)²)`. A PCA plane fitted across a sharp edge (v ≈ 0.05 -
+/// 0.2) blends the two sides and would pull generators off the edge; down-weighted,
+/// the clean planes of its neighbours locate the edge (`tests/features.rs`). On a
+/// smooth, densely sampled surface v is ~1e-4 and the factor ~1. Given normals
+/// have v = 0. (Our addition to seed Eq. 2.)
+fn confidence(v: f32) -> f64 {
+    let t = v as f64 / VARIATION_HALF_WEIGHT;
+    1.0 / (1.0 + t * t)
+}
+
+/// A symmetric 4x4 quadric in `f64`: `xᵀ A x + 2 bᵀ x + c` for `x ∈ R³`.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Quadric {
+    /// Upper triangle of `A`: xx xy xz yy yz zz.
+    pub a: [f64; 6],
+    /// Linear part.
+    pub b: [f64; 3],
+    /// Constant.
+    pub c: f64,
+}
+
+impl Quadric {
+    /// Add the rank-one quadric `u uᵀ`.
+    #[inline]
+    pub fn add_plane(&mut self, u: Plane) {
+        let u = [u[0] as f64, u[1] as f64, u[2] as f64, u[3] as f64];
+        self.a[0] += u[0] * u[0];
+        self.a[1] += u[0] * u[1];
+        self.a[2] += u[0] * u[2];
+        self.a[3] += u[1] * u[1];
+        self.a[4] += u[1] * u[2];
+        self.a[5] += u[2] * u[2];
+        self.b[0] += u[0] * u[3];
+        self.b[1] += u[1] * u[3];
+        self.b[2] += u[2] * u[3];
+        self.c += u[3] * u[3];
+    }
+
+    /// Add another quadric.
+    pub fn add(&mut self, o: &Quadric) {
+        for (x, y) in self.a.iter_mut().zip(o.a) {
+            *x += y;
+        }
+        for (x, y) in self.b.iter_mut().zip(o.b) {
+            *x += y;
+        }
+        self.c += o.c;
+    }
+
+    /// `[x,1]ᵀ Q [x,1]`.
+    pub fn eval(&self, x: D3) -> f64 {
+        let ax = Sym3(self.a).mul(x);
+        x[0] * (ax[0] + 2.0 * self.b[0])
+            + x[1] * (ax[1] + 2.0 * self.b[1])
+            + x[2] * (ax[2] + 2.0 * self.b[2])
+            + self.c
+    }
+
+    /// The minimiser of `Q(x) + mu |x - centre|²` (seed Eq. 5 plus the λ term).
+    ///
+    /// Solved for the displacement from `centre` through the eigen-decomposition of
+    /// `A + mu I`, dropping eigenvalues below `1e-9` of the largest: with `mu > 0`
+    /// the system is well-posed; with `mu = 0` a rank-deficient `A` (a planar or
+    /// cylindrical cluster) gets the least-norm displacement, i.e. the optimum
+    /// closest to `centre`. Returns the point and the numerical rank.
+    pub fn minimizer(&self, mu: f64, centre: D3) -> (D3, u32) {
+        let mut m = Sym3(self.a);
+        m.0[0] += mu;
+        m.0[3] += mu;
+        m.0[5] += mu;
+        // Gradient of Q at the centre (halved): A x + b.
+        let g = Sym3(self.a).mul(centre);
+        let rhs = [
+            -(g[0] + self.b[0]),
+            -(g[1] + self.b[1]),
+            -(g[2] + self.b[2]),
+        ];
+        let (d, rank) = m.pseudo_solve(rhs, 1e-9);
+        ([centre[0] + d[0], centre[1] + d[1], centre[2] + d[2]], rank)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::{dot_d, Rng};
+
+    fn random_quadric(rng: &mut Rng, planes: usize) -> Quadric {
+        let mut q = Quadric::default();
+        for _ in 0..planes {
+            let n: [f64; 3] = core::array::from_fn(|_| rng.unit_f64() * 2.0 - 1.0);
+            let len = libm::sqrt(dot_d(n, n));
+            let p: [f64; 3] = core::array::from_fn(|_| rng.unit_f64() - 0.5);
+            let w = 0.1 + rng.unit_f64();
+            let n = [n[0] / len, n[1] / len, n[2] / len];
+            let s = libm::sqrt(w);
+            q.add_plane([
+                (s * n[0]) as f32,
+                (s * n[1]) as f32,
+                (s * n[2]) as f32,
+                (-s * dot_d(n, p)) as f32,
+            ]);
+        }
+        q
+    }
+
+    /// The eigen-based solve against two independent oracles: Cramer's rule on the
+    /// normal equations, and random probes around the answer (none may be lower).
+    #[test]
+    fn qem_optimal_point_equals_brute_force_minimiser() {
+        let mut rng = Rng::new(11);
+        for case in 0..300 {
+            let q = random_quadric(&mut rng, 3 + case % 5);
+            let mu = if case % 2 == 0 { 0.0 } else { 1e-3 };
+            let centre = [0.1, -0.2, 0.05];
+            let f = |x: D3| {
+                let d = [x[0] - centre[0], x[1] - centre[1], x[2] - centre[2]];
+                q.eval(x) + mu * dot_d(d, d)
+            };
+            let (x, rank) = q.minimizer(mu, centre);
+            assert_eq!(rank, 3);
+            // Cramer: (A + mu I) y = mu centre - b.
+            let mut m = Sym3(q.a).full();
+            for a in 0..3 {
+                m[a][a] += mu;
+            }
+            let r = [
+                mu * centre[0] - q.b[0],
+                mu * centre[1] - q.b[1],
+                mu * centre[2] - q.b[2],
+            ];
+            let det3 = |m: [[f64; 3]; 3]| {
+                m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+                    - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+                    + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+            };
+            let det = det3(m);
+            let y: D3 = core::array::from_fn(|c| {
+                let mut mc = m;
+                for row in 0..3 {
+                    mc[row][c] = r[row];
+                }
+                det3(mc) / det
+            });
+            let dist = libm::sqrt((0..3).map(|a| (x[a] - y[a]) * (x[a] - y[a])).sum::<f64>());
+            let scale = 1.0 + libm::sqrt(dot_d(y, y));
+            assert!(dist < 1e-6 * scale, "case {case}: {x:?} vs Cramer {y:?}");
+            let fx = f(x);
+            for _ in 0..50 {
+                let step = 1e-3 * rng.unit_f64();
+                let d: D3 = core::array::from_fn(|_| (rng.unit_f64() - 0.5) * step);
+                let probe = [x[0] + d[0], x[1] + d[1], x[2] + d[2]];
+                assert!(
+                    f(probe) >= fx - 1e-12 * (1.0 + fx.abs()),
+                    "case {case}: probe lower"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn planar_cluster_without_lambda_stays_at_the_centre_in_plane() {
+        // All planes are z = 0.3: rank 1. The optimum is the centre projected onto
+        // the plane.
+        let mut q = Quadric::default();
+        for w in [1.0f32, 2.0, 0.5] {
+            let s = libm::sqrtf(w);
+            q.add_plane([0.0, 0.0, s, -0.3 * s]);
+        }
+        let (x, rank) = q.minimizer(0.0, [0.2, -0.4, 0.9]);
+        assert_eq!(rank, 1);
+        assert!((x[0] - 0.2).abs() < 1e-12 && (x[1] + 0.4).abs() < 1e-12);
+        assert!((x[2] - 0.3).abs() < 1e-6);
+    }
+}
