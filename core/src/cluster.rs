@@ -107,7 +107,7 @@ impl Ctx<'_, '_> {
 pub fn cluster_bytes(n: usize, cap: usize) -> usize {
     let persistent = n * 4 + 2 * cap * (12 + 4);
     let init = n * 8 + cap * 4; // union-find parents + shuffled order
-    let partition = n * 12 + cap * 4;
+    let partition = n * 16 + cap * 4;
     let update = cap * (core::mem::size_of::<Quadric>() + 8 * 4 + 8);
     let split = split::split_bytes(n, cap);
     persistent + init.max(partition).max(update).max(split) + 16 * 64
@@ -490,30 +490,37 @@ pub(crate) fn partition(
 ) -> Result<f64> {
     let n = labels.len();
     labels.fill(NONE);
-    let mut heap = Heap {
-        keys: s.try_alloc_slice::<u64>(n, 0)?,
-        len: 0,
+    let mut f = Front {
+        labels,
+        // Cost of each point's tentative label, so a rival cluster is compared
+        // without recomputing it.
+        best: s.try_alloc_slice::<f32>(n, f32::INFINITY)?,
+        // The last rival cluster each point was costed against: a boundary point
+        // is offered the same rival by several of its neighbours, costed once.
+        tried: s.try_alloc_slice::<u32>(n, NONE)?,
+        heap: Heap {
+            keys: s.try_alloc_slice::<u64>(n, 0)?,
+            len: 0,
+        },
     };
-    // Cost of each point's tentative label, so a rival cluster is compared without
-    // recomputing it.
-    let best = s.try_alloc_slice::<f32>(n, f32::INFINITY)?;
     // Seeds are final before anything grows, so no cluster can lose its seed.
     for (j, &sd) in seeds.iter().enumerate() {
-        labels[sd as usize] = j as u32 | FINAL;
+        f.labels[sd as usize] = j as u32 | FINAL;
     }
     let mut energy = 0.0f64;
     for &sd in seeds {
-        energy += grow_from(ctx, generators, labels, best, &mut heap, sd as usize, 0.0);
+        energy += grow_from(ctx, generators, &mut f, sd as usize, 0.0);
     }
-    while let Some(top) = heap.pop() {
+    while let Some(top) = f.heap.pop() {
         let q = (top & 0xFFFF_FFFF) as usize;
-        if labels[q] & FINAL != 0 {
+        if f.labels[q] & FINAL != 0 {
             continue;
         }
-        labels[q] |= FINAL;
+        f.labels[q] |= FINAL;
         let cost = f32::from_bits((top >> 32) as u32);
-        energy += grow_from(ctx, generators, labels, best, &mut heap, q, cost);
+        energy += grow_from(ctx, generators, &mut f, q, cost);
     }
+    let labels = f.labels;
     // Every component holds a seed, so every point was reached; a point that was
     // not (impossible by construction) would keep NONE and be caught by tests.
     for l in labels.iter_mut() {
@@ -522,36 +529,39 @@ pub(crate) fn partition(
     Ok(energy)
 }
 
+/// The growing front of a partition: labels (with the final bit), the tentative
+/// cost and last rival of each point, and the heap.
+struct Front<'s, 'l> {
+    labels: &'l mut [u32],
+    best: &'s mut [f32],
+    tried: &'s mut [u32],
+    heap: Heap<'s>,
+}
+
 /// Offer the cluster of the final point `q` to its unfinished neighbours.
 /// Returns `q`'s own cost, for the energy.
-fn grow_from(
-    ctx: &Ctx,
-    generators: &[V3],
-    labels: &mut [u32],
-    best: &mut [f32],
-    heap: &mut Heap,
-    q: usize,
-    cost: f32,
-) -> f64 {
-    let label = labels[q] & !FINAL;
+fn grow_from(ctx: &Ctx, generators: &[V3], f: &mut Front, q: usize, cost: f32) -> f64 {
+    let label = f.labels[q] & !FINAL;
     let c = generators[label as usize];
     for nbr in ctx.nb.symmetric(q) {
-        let t = labels[nbr as usize];
-        if t & FINAL != 0 || t == label {
+        let t = f.labels[nbr as usize];
+        if t & FINAL != 0 || t == label || f.tried[nbr as usize] == label {
             continue;
         }
+        f.tried[nbr as usize] = label;
         let e = ctx.cost(nbr as usize, c);
-        if t == NONE || e < best[nbr as usize] {
-            labels[nbr as usize] = label;
-            best[nbr as usize] = e;
-            if !heap.push(key(e, nbr)) {
+        if t == NONE || e < f.best[nbr as usize] {
+            f.labels[nbr as usize] = label;
+            f.best[nbr as usize] = e;
+            if !f.heap.push(key(e, nbr)) {
                 // Full: drop stale entries (final points, superseded costs).
-                heap.retain(|k| {
+                let (labels, best) = (&*f.labels, &*f.best);
+                f.heap.retain(|k| {
                     let p = (k & 0xFFFF_FFFF) as usize;
                     labels[p] & FINAL == 0 && key(best[p], p as u32) == k
                 });
                 // Live entries <= unfinished points < n: there is room now.
-                heap.push(key(e, nbr));
+                f.heap.push(key(e, nbr));
             }
         }
     }

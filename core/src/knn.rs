@@ -255,6 +255,7 @@ pub fn try_neighbours_in<'a>(
         Ok(())
     })?;
     let (rev_start, rev) = reverse_edges_in(arena, knn, k)?;
+
     tick(progress, Stage::Neighbours, n as u64, n as u64)?;
     Ok(Neighbours {
         k,

@@ -169,6 +169,23 @@ impl Quadric {
         self.c += u[3] * u[3];
     }
 
+    /// Add `w u uᵀ`.
+    #[inline]
+    pub fn add_plane_scaled(&mut self, u: Plane, w: f64) {
+        let u = [u[0] as f64, u[1] as f64, u[2] as f64, u[3] as f64];
+        let wu = [w * u[0], w * u[1], w * u[2], w * u[3]];
+        self.a[0] += wu[0] * u[0];
+        self.a[1] += wu[0] * u[1];
+        self.a[2] += wu[0] * u[2];
+        self.a[3] += wu[1] * u[1];
+        self.a[4] += wu[1] * u[2];
+        self.a[5] += wu[2] * u[2];
+        self.b[0] += wu[0] * u[3];
+        self.b[1] += wu[1] * u[3];
+        self.b[2] += wu[2] * u[3];
+        self.c += wu[3] * u[3];
+    }
+
     /// Add another quadric.
     pub fn add(&mut self, o: &Quadric) {
         for (x, y) in self.a.iter_mut().zip(o.a) {

@@ -1,4 +1,9 @@
 //! The std front end of vsaqem: file formats, normalisation, arena sizing, reports.
 //! No algorithm lives here; see `vsaqem-core`.
 
+pub mod cmd;
+pub mod input;
 pub mod io;
+pub mod json;
+pub mod normalize;
+pub mod progress;

@@ -1,0 +1,270 @@
+//! `vsaqem cluster`: the input points coloured by cluster, plus the generators.
+
+use crate::cmd::{arena_buffer, label_colour};
+use crate::input::{self, Prepared};
+use crate::io::{write_atomic, write_points_ply};
+use crate::json;
+use crate::progress::StageClock;
+use clap::Args;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+use vsaqem_core::sample::Shape;
+use vsaqem_core::{Clustered, Params};
+
+/// Where the points come from.
+#[derive(Args, Debug, Clone)]
+pub struct InputArgs {
+    /// Point cloud to read (.ply, .xyz/.xyzn/.txt/.pts, .pcd; normals used when
+    /// present). Without it, a built-in generated sample is used.
+    pub input: Option<PathBuf>,
+    /// Built-in sample when no input is given: demo, sphere, torus, box, cylinder.
+    #[arg(long, default_value = "demo", value_parser = parse_shape)]
+    pub sample: Shape,
+    /// Points of the built-in sample.
+    #[arg(long, default_value_t = 20_000)]
+    pub points: usize,
+    /// Gaussian noise added to the built-in sample, as a fraction of its
+    /// bounding-box diagonal (e.g. 0.005 = 0.5 %).
+    #[arg(long, default_value_t = 0.0)]
+    pub noise: f64,
+}
+
+fn parse_shape(s: &str) -> Result<Shape, String> {
+    Shape::from_name(s)
+        .ok_or_else(|| format!("unknown sample '{s}': use demo, sphere, torus, box or cylinder"))
+}
+
+/// Clustering parameters; defaults are `vsaqem_core::Params::default()`.
+#[derive(Args, Debug, Clone)]
+pub struct ClusterArgs {
+    /// Initial number of clusters (generators); the output has about this many
+    /// vertices, more where splitting adds some.
+    #[arg(long, default_value_t = Params::default().clusters)]
+    pub clusters: u32,
+    /// Cap on clusters that splitting may reach (0: twice --clusters).
+    #[arg(long, default_value_t = Params::default().max_clusters)]
+    pub max_clusters: u32,
+    /// Partition + generator-update passes before splitting.
+    #[arg(long, default_value_t = Params::default().iterations)]
+    pub iterations: u32,
+    /// Passes after each splitting batch.
+    #[arg(long, default_value_t = Params::default().split_iterations)]
+    pub split_iterations: u32,
+    /// Splitting batches at most (0 disables splitting).
+    #[arg(long, default_value_t = Params::default().split_rounds)]
+    pub split_rounds: u32,
+    /// Largest allowed error of a point against its cluster's generator, as a
+    /// fraction of the bounding-box diagonal (0 disables splitting).
+    #[arg(long, default_value_t = Params::default().tolerance)]
+    pub tolerance: f32,
+    /// Weight of the Euclidean term in the partition cost (dimensionless).
+    #[arg(long, default_value_t = Params::default().lambda)]
+    pub lambda: f32,
+    /// Neighbours per point (1 to 32).
+    #[arg(long, default_value_t = Params::default().k)]
+    pub knn: usize,
+    /// Seed of the generator initialisation (same seed, same output).
+    #[arg(long, default_value_t = Params::default().seed)]
+    pub seed: u64,
+}
+
+impl ClusterArgs {
+    /// The core parameters.
+    pub fn params(&self) -> Params {
+        Params {
+            k: self.knn,
+            clusters: self.clusters,
+            max_clusters: self.max_clusters,
+            iterations: self.iterations,
+            split_iterations: self.split_iterations,
+            split_rounds: self.split_rounds,
+            tolerance: self.tolerance,
+            lambda: self.lambda,
+            seed: self.seed,
+        }
+    }
+}
+
+/// `vsaqem cluster`.
+#[derive(Args, Debug)]
+pub struct Cmd {
+    #[command(flatten)]
+    pub input: InputArgs,
+    #[command(flatten)]
+    pub cluster: ClusterArgs,
+    /// Output PLY: input points coloured by cluster (property `cluster`), then the
+    /// generators in black.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    /// Also write the report as JSON to this file.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    /// No progress bar.
+    #[arg(short, long)]
+    pub quiet: bool,
+}
+
+/// Read (or sample) and normalise, timing it.
+pub fn read_input(args: &InputArgs, clock: &mut StageClock) -> Result<Prepared, String> {
+    let t = Instant::now();
+    let (name, cloud) = input::load(
+        args.input.as_deref(),
+        args.sample,
+        args.points,
+        args.noise,
+        1,
+    )?;
+    let prepared = input::prepare(name, cloud);
+    clock.record("read", t.elapsed());
+    Ok(prepared)
+}
+
+/// Run the command.
+pub fn run(cmd: &Cmd) -> Result<(), String> {
+    let mut clock = StageClock::new(!cmd.quiet);
+    let input = read_input(&cmd.input, &mut clock)?;
+    let params = cmd.cluster.params();
+    let bytes = vsaqem_core::cluster_bytes(input.points.len(), &params);
+    let mut buf = arena_buffer(bytes);
+    let arena = vsaqem_core::Arena::new(&mut buf);
+    let out = vsaqem_core::cluster(
+        &arena,
+        &input.points,
+        input.normals.as_deref(),
+        &params,
+        &mut clock,
+    );
+    clock.finish();
+    let out = out.map_err(|e| format!("{}: {e}", input.name))?;
+    let t = Instant::now();
+    write_clusters(&cmd.output, &input, &out)?;
+    clock.record("write", t.elapsed());
+    let report = Report {
+        input: &input,
+        out: &out,
+        params: &params,
+        clock: &clock,
+        arena_bytes: bytes,
+        output: &cmd.output,
+    };
+    print!("{}", report.text());
+    if let Some(path) = &cmd.report {
+        let text = report.json();
+        write_atomic(path, |w| w.write_all(text.as_bytes())).map_err(|e| e.to_string())?;
+    }
+    Ok(())
+}
+
+fn write_clusters(path: &Path, input: &Prepared, out: &Clustered) -> Result<(), String> {
+    let labels = out.clusters.labels;
+    let gens = out.clusters.generators;
+    let mut pts = input.original.clone();
+    pts.extend(gens.iter().map(|&g| input.frame.to_file(g)));
+    let mut colours: Vec<[u8; 3]> = labels.iter().map(|&l| label_colour(l)).collect();
+    colours.extend(std::iter::repeat_n([0, 0, 0], gens.len()));
+    let mut ids = labels.to_vec();
+    ids.extend(0..gens.len() as u32);
+    write_atomic(path, |w| {
+        write_points_ply(w, &pts, &colours, Some(("cluster", &ids)))
+    })
+    .map_err(|e| e.to_string())
+}
+
+struct Report<'r> {
+    input: &'r Prepared,
+    out: &'r Clustered<'r>,
+    params: &'r Params,
+    clock: &'r StageClock,
+    arena_bytes: usize,
+    output: &'r Path,
+}
+
+fn ms(d: std::time::Duration) -> f64 {
+    d.as_secs_f64() * 1e3
+}
+
+impl Report<'_> {
+    fn text(&self) -> String {
+        let s = &self.out.stats;
+        let c = &s.cluster;
+        let n = self.input.points.len();
+        let diag = self.out.bounds.diag as f64 * self.input.frame.scale;
+        let normals = if self.input.normals.is_some() {
+            "normals given"
+        } else {
+            "normals by PCA"
+        };
+        let times: Vec<String> = self
+            .clock
+            .times
+            .iter()
+            .map(|(k, d)| format!("{k} {:.1} ms", ms(*d)))
+            .collect();
+        format!(
+            "input      {}: {n} points, {normals}, bounding-box diagonal {diag:.6}\n\
+             neighbours k = {}, average spacing {:.3}% of the diagonal\n\
+             clusters   {} ({} initial, +{} by splitting in {} batches, {} batches undone), {} passes{}\n\
+             max error  {:.3}% of the diagonal (tolerance {:.3}%)\n\
+             time       {}, total {:.1} ms\n\
+             memory     arena peak {} bytes ({:.1} bytes/point), {} reserved\n\
+             output     {}: {n} points coloured by cluster + {} generators (black)\n",
+            self.input.name,
+            s.k,
+            s.spacing as f64 / self.out.bounds.diag as f64 * 100.0,
+            c.clusters,
+            c.initial_clusters,
+            c.splits,
+            c.split_rounds,
+            c.rejected_batches,
+            c.passes,
+            if c.converged { ", converged" } else { "" },
+            c.max_error * 100.0,
+            self.params.tolerance * 100.0,
+            times.join(", "),
+            ms(self.clock.total()),
+            s.peak_clustering,
+            s.peak_clustering as f64 / n as f64,
+            self.arena_bytes,
+            self.output.display(),
+            c.clusters,
+        )
+    }
+
+    fn json(&self) -> String {
+        let s = &self.out.stats;
+        let c = &s.cluster;
+        let mut times = json::Obj::default();
+        for (k, d) in &self.clock.times {
+            times.num(k, ms(*d));
+        }
+        times.num("total", ms(self.clock.total()));
+        let mut o = json::Obj::default();
+        o.str("input", &self.input.name)
+            .num("points", self.input.points.len() as f64)
+            .bool("normals_given", self.input.normals.is_some())
+            .num(
+                "diagonal",
+                self.out.bounds.diag as f64 * self.input.frame.scale,
+            )
+            .num("k", s.k as f64)
+            .num(
+                "spacing_relative",
+                s.spacing as f64 / self.out.bounds.diag as f64,
+            )
+            .num("components", c.components as f64)
+            .num("initial_clusters", c.initial_clusters as f64)
+            .num("clusters", c.clusters as f64)
+            .num("passes", c.passes as f64)
+            .num("split_batches", c.split_rounds as f64)
+            .num("split_batches_undone", c.rejected_batches as f64)
+            .num("splits", c.splits as f64)
+            .bool("converged", c.converged)
+            .num("max_error_relative", c.max_error as f64)
+            .num("tolerance_relative", self.params.tolerance as f64)
+            .raw("time_ms", &times.finish().replace('\n', "\n  "))
+            .num("arena_peak_bytes", s.peak_clustering as f64)
+            .num("arena_reserved_bytes", self.arena_bytes as f64)
+            .str("output", &self.output.display().to_string());
+        o.finish() + "\n"
+    }
+}

@@ -1,0 +1,107 @@
+//! Where the points come from: a file, or a built-in generated sample.
+
+use crate::io::{read_cloud, Cloud};
+use crate::normalize::Frame;
+use std::path::Path;
+use vsaqem_core::math::Rng;
+use vsaqem_core::sample::{fill, gaussian, Shape};
+
+/// Points ready for core, with the frame that maps results back.
+pub struct Prepared {
+    /// What the points are (a file name or the sample's description).
+    pub name: String,
+    /// Points in core coordinates (`[-1, 1]^3`).
+    pub points: Vec<[f32; 3]>,
+    /// Normals as given (directions are unchanged by a uniform scale).
+    pub normals: Option<Vec<[f32; 3]>>,
+    /// Core coordinates <-> file coordinates.
+    pub frame: Frame,
+    /// Positions as read, in file coordinates.
+    pub original: Vec<[f64; 3]>,
+}
+
+/// A built-in sample: `points` points on `shape`, Gaussian noise of standard
+/// deviation `noise` times the bounding-box diagonal.
+pub fn sample(shape: Shape, points: usize, noise: f64, seed: u64) -> Cloud {
+    let mut p = vec![[0.0f32; 3]; points];
+    fill(shape, seed, 0.0, &mut p);
+    let mut positions: Vec<[f64; 3]> = p.iter().map(|q| q.map(|v| v as f64)).collect();
+    if noise > 0.0 {
+        let diag = {
+            let mut lo = [f64::INFINITY; 3];
+            let mut hi = [f64::NEG_INFINITY; 3];
+            for q in &positions {
+                for a in 0..3 {
+                    lo[a] = lo[a].min(q[a]);
+                    hi[a] = hi[a].max(q[a]);
+                }
+            }
+            (0..3).map(|a| (hi[a] - lo[a]).powi(2)).sum::<f64>().sqrt()
+        };
+        let mut rng = Rng::new(seed ^ 0x5eed_0f_0015e);
+        for q in positions.iter_mut() {
+            for v in q.iter_mut() {
+                *v += noise * diag * gaussian(&mut rng);
+            }
+        }
+    }
+    Cloud {
+        positions,
+        normals: None,
+    }
+}
+
+/// Read `path`, or make the sample when there is no path.
+pub fn load(
+    path: Option<&Path>,
+    shape: Shape,
+    points: usize,
+    noise: f64,
+    seed: u64,
+) -> Result<(String, Cloud), String> {
+    match path {
+        Some(p) => {
+            let cloud = read_cloud(p).map_err(|e| e.to_string())?;
+            Ok((p.display().to_string(), cloud))
+        }
+        None => {
+            let name = if noise > 0.0 {
+                format!(
+                    "built-in sample '{}' ({points} points, noise {}% of the diagonal)",
+                    shape_name(shape),
+                    noise * 100.0
+                )
+            } else {
+                format!("built-in sample '{}' ({points} points)", shape_name(shape))
+            };
+            Ok((name, sample(shape, points, noise, seed)))
+        }
+    }
+}
+
+/// The lower-case name of a shape.
+pub fn shape_name(s: Shape) -> &'static str {
+    match s {
+        Shape::Sphere => "sphere",
+        Shape::Torus => "torus",
+        Shape::Box => "box",
+        Shape::Cylinder => "cylinder",
+        _ => "demo",
+    }
+}
+
+/// Normalise into core coordinates.
+pub fn prepare(name: String, cloud: Cloud) -> Prepared {
+    let frame = Frame::fit(&cloud.positions);
+    let points = cloud.positions.iter().map(|&p| frame.to_core(p)).collect();
+    let normals = cloud
+        .normals
+        .map(|n| n.iter().map(|v| v.map(|c| c as f32)).collect());
+    Prepared {
+        name,
+        points,
+        normals,
+        frame,
+        original: cloud.positions,
+    }
+}

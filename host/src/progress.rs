@@ -1,0 +1,100 @@
+//! Time per stage and a progress bar on stderr (only when stderr is a terminal).
+
+use std::io::{IsTerminal, Write};
+use std::time::{Duration, Instant};
+use vsaqem_core::{Flow, Progress, Stage};
+
+/// Records when each core stage starts and ends, and draws a bar.
+pub struct StageClock {
+    started: Instant,
+    current: Option<(Stage, Instant)>,
+    /// `(stage name, duration)` in the order stages ran.
+    pub times: Vec<(&'static str, Duration)>,
+    bar: bool,
+    last_draw: Option<Instant>,
+}
+
+impl StageClock {
+    /// A clock that draws a bar when `show_bar` and stderr is a terminal.
+    pub fn new(show_bar: bool) -> Self {
+        StageClock {
+            started: Instant::now(),
+            current: None,
+            times: Vec::new(),
+            bar: show_bar && std::io::stderr().is_terminal(),
+            last_draw: None,
+        }
+    }
+
+    /// Close the running stage (call after core returns).
+    pub fn finish(&mut self) {
+        if let Some((stage, t)) = self.current.take() {
+            self.times.push((stage.name(), t.elapsed()));
+        }
+        if self.bar && self.last_draw.is_some() {
+            let _ = write!(std::io::stderr(), "\r\x1b[2K");
+        }
+    }
+
+    /// Add a host-side stage (reading, writing).
+    pub fn record(&mut self, name: &'static str, d: Duration) {
+        self.times.push((name, d));
+    }
+
+    /// Time since the clock was made.
+    pub fn total(&self) -> Duration {
+        self.started.elapsed()
+    }
+
+    /// Duration of a recorded stage.
+    pub fn get(&self, name: &str) -> Duration {
+        self.times
+            .iter()
+            .filter(|(n, _)| *n == name)
+            .map(|(_, d)| *d)
+            .sum()
+    }
+
+    fn draw(&mut self, stage: Stage, done: u64, total: u64) {
+        let now = Instant::now();
+        if let Some(t) = self.last_draw {
+            if now - t < Duration::from_millis(80) && done < total {
+                return;
+            }
+        }
+        self.last_draw = Some(now);
+        let frac = if total > 0 {
+            (done as f64 / total as f64).min(1.0)
+        } else {
+            0.0
+        };
+        let width = 30;
+        let fill = (frac * width as f64) as usize;
+        let _ = write!(
+            std::io::stderr(),
+            "\r\x1b[2K{:<11} [{}{}] {:>3}%",
+            stage.name(),
+            "#".repeat(fill),
+            "-".repeat(width - fill),
+            (frac * 100.0) as u32
+        );
+    }
+}
+
+impl Progress for StageClock {
+    fn report(&mut self, stage: Stage, done: u64, total: u64) -> Flow {
+        match self.current {
+            Some((s, _)) if s == stage => {}
+            _ => {
+                if let Some((s, t)) = self.current.take() {
+                    self.times.push((s.name(), t.elapsed()));
+                }
+                self.current = Some((stage, Instant::now()));
+            }
+        }
+        if self.bar {
+            self.draw(stage, done, total);
+        }
+        Flow::Continue
+    }
+}
