@@ -38,7 +38,7 @@ pub fn sample(shape: Shape, points: usize, noise: f64, seed: u64) -> Cloud {
             }
             (0..3).map(|a| (hi[a] - lo[a]).powi(2)).sum::<f64>().sqrt()
         };
-        let mut rng = Rng::new(seed ^ 0x5eed_0f_0015e);
+        let mut rng = Rng::new(seed ^ 0x05EE_D0F0_015E);
         for q in positions.iter_mut() {
             for v in q.iter_mut() {
                 *v += noise * diag * gaussian(&mut rng);
