@@ -2,8 +2,10 @@
 //! No algorithm lives here; see `vsaqem-core`.
 
 pub mod cmd;
+pub mod eval;
 pub mod input;
 pub mod io;
 pub mod json;
 pub mod normalize;
 pub mod progress;
+pub mod render;

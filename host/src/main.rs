@@ -16,12 +16,19 @@ enum Command {
     /// Cluster a point cloud and write the points coloured by cluster plus the
     /// generators (the paper's "input points after clustering").
     Cluster(cmd::cluster::Cmd),
+    /// Measure a mesh against a point cloud: distances both ways, topology, triangle
+    /// quality.
+    Eval(cmd::eval::Cmd),
+    /// Render a mesh (optionally with points and wireframe) to a PNG image.
+    Render(cmd::render::Cmd),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
         Command::Cluster(c) => cmd::cluster::run(c),
+        Command::Eval(c) => cmd::eval::run(c),
+        Command::Render(c) => cmd::render::run(c),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

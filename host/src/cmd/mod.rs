@@ -1,6 +1,8 @@
 //! The subcommands.
 
 pub mod cluster;
+pub mod eval;
+pub mod render;
 
 use std::mem::MaybeUninit;
 

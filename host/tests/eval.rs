@@ -1,0 +1,344 @@
+//! `vsaqem eval` and `vsaqem::eval::evaluate` on hand-computed cases.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use vsaqem::eval::{dist2_point_triangle, evaluate, Evaluation};
+
+/// The unit cube [0, 1]^3, vertex `x + 2y + 4z`, 12 outward (counter-clockwise) faces.
+fn cube() -> (Vec<[f64; 3]>, Vec<[u32; 3]>) {
+    let v = (0..8)
+        .map(|i| [(i & 1) as f64, (i >> 1 & 1) as f64, (i >> 2 & 1) as f64])
+        .collect();
+    let t = vec![
+        [0, 2, 3],
+        [0, 3, 1],
+        [4, 5, 7],
+        [4, 7, 6],
+        [0, 1, 5],
+        [0, 5, 4],
+        [2, 6, 7],
+        [2, 7, 3],
+        [0, 4, 6],
+        [0, 6, 2],
+        [1, 3, 7],
+        [1, 7, 5],
+    ];
+    (v, t)
+}
+
+fn eval_mesh(points: &[[f64; 3]], (v, t): &(Vec<[f64; 3]>, Vec<[u32; 3]>)) -> Evaluation {
+    evaluate(points, v, t, 2000)
+}
+
+const CENTRE: [f64; 3] = [0.5, 0.5, 0.5];
+
+#[test]
+fn distances_to_one_triangle_match_hand_computed_values() {
+    let tri = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+    let d = |p: [f64; 3]| dist2_point_triangle(p, &tri).sqrt();
+    // Above the interior: the height.
+    assert_eq!(d([0.25, 0.25, 2.0]), 2.0);
+    // Beside the edge y = 0 (in the plane, and off it): 3-4-5.
+    assert_eq!(d([0.5, -1.0, 0.0]), 1.0);
+    assert_eq!(d([0.5, -3.0, 4.0]), 5.0);
+    // Beside the hypotenuse x + y = 1, in the plane.
+    assert!((d([1.0, 1.0, 0.0]) - 0.5f64.sqrt()).abs() < 1e-15);
+    // Beyond the vertices.
+    assert_eq!(d([-3.0, -4.0, 0.0]), 5.0);
+    assert_eq!(d([4.0, 0.0, 4.0]), 5.0);
+    assert_eq!(d([0.0, 5.0, -3.0]), 5.0);
+    // On the triangle.
+    assert_eq!(d([0.2, 0.3, 0.0]), 0.0);
+
+    let v = tri.to_vec();
+    let pts = [
+        [0.25, 0.25, 2.0],
+        [0.5, -3.0, 4.0],
+        [-3.0, -4.0, 0.0],
+        [0.2, 0.3, 0.0],
+    ];
+    let e = evaluate(&pts, &v, &[[0, 1, 2]], 100);
+    let s = e.point_to_mesh.stats;
+    assert_eq!(s.count, 4);
+    assert_eq!(s.max, 5.0);
+    assert_eq!(s.mean, 3.0);
+    assert_eq!(s.rms, (54.0f64 / 4.0).sqrt());
+    assert_eq!(s.p99, 5.0);
+    // The points' box is 3.5 x 4.3 x 4 (diagonal 6.8): all but the last are far.
+    assert_eq!(e.point_to_mesh.far, 3);
+    assert_eq!(e.hausdorff, s.max.max(e.mesh_to_points.max));
+    assert_eq!(e.chamfer, 0.5 * (s.mean + e.mesh_to_points.mean));
+    assert_eq!(e.topology.boundary_edges, 3);
+    assert_eq!(e.topology.euler, 1);
+}
+
+#[test]
+fn closed_cube_has_sphere_topology_and_centre_at_half() {
+    let m = cube();
+    let e = eval_mesh(&[CENTRE, [0.5, 0.5, 1.0], [2.0, 0.5, 0.5]], &m);
+    let t = e.topology;
+    assert_eq!(
+        (t.vertices, t.referenced_vertices, t.edges, t.faces),
+        (8, 8, 18, 12)
+    );
+    assert_eq!(t.euler, 2);
+    assert_eq!(t.boundary_edges, 0);
+    assert_eq!(t.non_manifold_edges, 0);
+    assert_eq!(t.non_manifold_vertices, 0);
+    assert_eq!(t.components, 1);
+    assert_eq!(t.inconsistent_edges, 0);
+    assert_eq!(t.degenerate_faces, 0);
+    assert_eq!(t.duplicate_faces, 0);
+    assert!(t.is_closed_manifold());
+    assert!((e.signed_volume - 1.0).abs() < 1e-15);
+    let s = e.point_to_mesh.stats;
+    assert_eq!(s.max, 1.0);
+    assert_eq!(s.mean, 0.5);
+    assert!((e.quality.min - 45.0).abs() < 1e-9);
+    assert!((e.quality.p50 - 45.0).abs() < 1e-9);
+    let centre_only = eval_mesh(&[CENTRE], &m);
+    assert_eq!(centre_only.point_to_mesh.stats.max, 0.5);
+}
+
+#[test]
+fn cube_without_one_triangle_has_three_boundary_edges_and_euler_one() {
+    let (v, mut t) = cube();
+    t.remove(5);
+    let e = evaluate(&[CENTRE], &v, &t, 500);
+    let t = e.topology;
+    assert_eq!(t.boundary_edges, 3);
+    assert_eq!((t.edges, t.faces), (18, 11));
+    assert_eq!(t.euler, 1);
+    assert_eq!(t.inconsistent_edges, 0);
+    assert_eq!(t.components, 1);
+    assert!(!t.is_closed_manifold());
+}
+
+#[test]
+fn two_cubes_sharing_one_vertex_make_one_non_manifold_vertex() {
+    let (mut v, mut t) = cube();
+    // The second cube is [1, 2]^3: its vertex 0 is the first cube's vertex 7.
+    let map = |i: u32| if i == 0 { 7 } else { 8 + i - 1 };
+    v.extend((1..8).map(|i| {
+        [
+            1.0 + (i & 1) as f64,
+            1.0 + (i >> 1 & 1) as f64,
+            1.0 + (i >> 2 & 1) as f64,
+        ]
+    }));
+    let second: Vec<[u32; 3]> = cube().1.iter().map(|f| f.map(map)).collect();
+    t.extend(second);
+    let e = evaluate(&[CENTRE], &v, &t, 500);
+    let t = e.topology;
+    assert_eq!(t.non_manifold_vertices, 1);
+    assert_eq!(t.non_manifold_edges, 0);
+    assert_eq!(t.components, 2);
+    assert_eq!((t.referenced_vertices, t.edges, t.faces), (15, 36, 24));
+    assert_eq!(t.euler, 3);
+    assert_eq!(t.inconsistent_edges, 0);
+    assert!(!t.is_closed_manifold());
+}
+
+#[test]
+fn flipped_face_makes_its_three_edges_inconsistent() {
+    let (v, mut t) = cube();
+    t[3].swap(1, 2);
+    let e = evaluate(&[CENTRE], &v, &t, 500);
+    assert_eq!(e.topology.inconsistent_edges, 3);
+    assert_eq!(e.topology.boundary_edges, 0);
+    assert_eq!(e.topology.euler, 2);
+}
+
+#[test]
+fn three_faces_on_one_edge_make_a_non_manifold_edge() {
+    let (mut v, mut t) = cube();
+    // A fin on the edge 0-1 (bottom front), pointing out along -y -z.
+    v.push([0.5, -1.0, -1.0]);
+    t.push([0, 1, 8]);
+    let e = evaluate(&[CENTRE], &v, &t, 500);
+    assert_eq!(e.topology.non_manifold_edges, 1);
+    // Its other two edges are boundary.
+    assert_eq!(e.topology.boundary_edges, 2);
+}
+
+#[test]
+fn degenerate_duplicate_and_unreferenced_are_counted() {
+    let (mut v, mut t) = cube();
+    v.push([0.5, 0.0, 0.0]); // 8: on the edge 0-1
+    v.push([9.0, 9.0, 9.0]); // 9: referenced by nothing
+    t.push([0, 8, 1]); // zero area
+    t.push([0, 0, 1]); // repeated index
+    t.push([3, 0, 2]); // same set as [0, 2, 3]
+    let e = evaluate(&[CENTRE], &v, &t, 500);
+    let t = e.topology;
+    assert_eq!(t.degenerate_faces, 2);
+    assert_eq!(t.duplicate_faces, 1);
+    assert_eq!(t.vertices, 10);
+    // Vertex 8 is referenced by the zero-area face (a proper face), 9 by nothing.
+    assert_eq!(t.referenced_vertices, 9);
+    assert_eq!(t.unreferenced_vertices, 1);
+    assert_eq!(e.quality.min, 0.0);
+}
+
+#[test]
+fn out_of_range_faces_are_counted_and_ignored() {
+    let (v, mut t) = cube();
+    t.push([0, 1, 99]);
+    let e = evaluate(&[CENTRE], &v, &t, 500);
+    assert_eq!(e.topology.invalid_faces, 1);
+    assert_eq!(e.topology.faces, 13);
+    assert_eq!(e.topology.euler, 2);
+    assert_eq!(e.point_to_mesh.stats.max, 0.5);
+}
+
+/// Points on a regular grid on each face of the unit cube, `n` per side.
+fn cube_surface_points(n: usize) -> Vec<[f64; 3]> {
+    let mut pts = Vec::new();
+    for axis in 0..3 {
+        for side in [0.0, 1.0] {
+            for i in 0..n {
+                for j in 0..n {
+                    let (u, w) = (i as f64 / (n - 1) as f64, j as f64 / (n - 1) as f64);
+                    let mut p = [0.0; 3];
+                    p[axis] = side;
+                    p[(axis + 1) % 3] = u;
+                    p[(axis + 2) % 3] = w;
+                    pts.push(p);
+                }
+            }
+        }
+    }
+    pts
+}
+
+#[test]
+fn densely_sampled_mesh_is_close_both_ways() {
+    let n = 41;
+    let pts = cube_surface_points(n);
+    let e = evaluate(&pts, &cube().0, &cube().1, 20_000);
+    assert_eq!(e.point_to_mesh.stats.max, 0.0);
+    assert_eq!(e.point_to_mesh.far, 0);
+    assert_eq!(e.mesh_to_points.count, 20_000);
+    // No sample is farther from the grid than half a cell diagonal.
+    let h = 1.0 / (n - 1) as f64;
+    assert!(e.mesh_to_points.max <= h * 0.5f64.sqrt() + 1e-12);
+    assert!(e.mesh_to_points.mean < 0.5 * h);
+    assert!(e.chamfer < 0.25 * h);
+    assert_eq!(e.hausdorff, e.mesh_to_points.max);
+    assert!((e.diagonal - 3f64.sqrt()).abs() < 1e-15);
+    // The same input gives the same numbers.
+    assert_eq!(e, evaluate(&pts, &cube().0, &cube().1, 20_000));
+}
+
+#[test]
+fn missing_geometry_gives_nan_not_a_panic() {
+    let (v, t) = cube();
+    let e = evaluate(&[], &v, &t, 100);
+    assert!(e.point_to_mesh.stats.max.is_nan() && e.mesh_to_points.mean.is_nan());
+    let e = evaluate(&[CENTRE], &v, &[], 100);
+    assert_eq!(e.mesh_to_points.count, 0);
+    assert_eq!(e.point_to_mesh.stats.max, f64::INFINITY);
+    assert_eq!(e.topology.euler, 0);
+    assert_eq!(e.topology.unreferenced_vertices, 8);
+}
+
+// ---------------------------------------------------------------------------------
+// The command
+
+fn dir(name: &str) -> PathBuf {
+    let d = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join("eval")
+        .join(name);
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn write_off(path: &Path, (v, t): &(Vec<[f64; 3]>, Vec<[u32; 3]>)) {
+    let mut s = format!("OFF\n{} {} 0\n", v.len(), t.len());
+    for p in v {
+        s += &format!("{} {} {}\n", p[0], p[1], p[2]);
+    }
+    for f in t {
+        s += &format!("3 {} {} {}\n", f[0], f[1], f[2]);
+    }
+    std::fs::write(path, s).unwrap();
+}
+
+fn write_xyz(path: &Path, pts: &[[f64; 3]]) {
+    let s: String = pts
+        .iter()
+        .map(|p| format!("{} {} {}\n", p[0], p[1], p[2]))
+        .collect();
+    std::fs::write(path, s).unwrap();
+}
+
+fn run(args: &[&Path]) -> (Option<i32>, String, String) {
+    let r = Command::new(env!("CARGO_BIN_EXE_vsaqem"))
+        .arg("eval")
+        .args(args)
+        .output()
+        .unwrap();
+    (
+        r.status.code(),
+        String::from_utf8_lossy(&r.stdout).into_owned(),
+        String::from_utf8_lossy(&r.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn command_prints_text_and_json_reports() {
+    let d = dir("reports");
+    let (pts, mesh) = (d.join("pts.xyz"), d.join("cube.off"));
+    write_xyz(&pts, &cube_surface_points(11));
+    write_off(&mesh, &cube());
+    let (code, out, err) = run(&[&pts, &mesh]);
+    assert_eq!(code, Some(0), "{err}");
+    for needle in [
+        "points->mesh",
+        "mesh->points",
+        "chamfer",
+        "Euler 2",
+        "closed manifold: yes",
+        "min angle",
+    ] {
+        assert!(out.contains(needle), "'{needle}' not in:\n{out}");
+    }
+    let (code, out, err) = run(&[
+        &pts,
+        &mesh,
+        Path::new("--json"),
+        Path::new("--samples"),
+        Path::new("500"),
+    ]);
+    assert_eq!(code, Some(0), "{err}");
+    let out = out.replace(' ', "");
+    for needle in [
+        "\"euler\":2,",
+        "\"boundary_edges\":0,",
+        "\"count\":500,",
+        "\"hausdorff_relative\":",
+        "\"min_angle_p50\":45",
+    ] {
+        assert!(out.contains(needle), "'{needle}' not in:\n{out}");
+    }
+}
+
+#[test]
+fn command_fails_cleanly_on_bad_input() {
+    let d = dir("bad");
+    let (pts, mesh, empty) = (d.join("pts.xyz"), d.join("cube.off"), d.join("empty.off"));
+    write_xyz(&pts, &[CENTRE]);
+    write_off(&mesh, &cube());
+    write_off(&empty, &(vec![[0.0; 3]; 3], vec![]));
+    let cases: [(&[&Path], &str); 3] = [
+        (&[&d.join("missing.xyz"), &mesh], "missing.xyz"),
+        (&[&pts, &empty], "no faces"),
+        (&[&pts, &d.join("cube.stl")], "unknown extension"),
+    ];
+    for (args, needle) in cases {
+        let (code, _, err) = run(args);
+        assert_eq!(code, Some(1), "{err}");
+        assert!(err.contains(needle) && !err.contains("panicked"), "{err}");
+    }
+}
