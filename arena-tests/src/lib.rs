@@ -1,1 +1,209 @@
-//! Shared helpers for the contract tests.
+//! Shared helpers for the contract tests: generated clouds, the shared data, and
+//! an independent checker of mesh invariants.
+
+use std::collections::HashMap;
+use std::path::PathBuf;
+use vsaqem_core::sample::{fill, Shape};
+use vsaqem_core::V3;
+
+/// `n` points on `shape` (seeded).
+pub fn cloud(shape: Shape, n: usize, seed: u64) -> Vec<V3> {
+    let mut p = vec![[0.0; 3]; n];
+    fill(shape, seed, 0.0, &mut p);
+    p
+}
+
+/// The shared clouds (`../shared/data/clouds/*.ply`), sorted, or `None` (with a
+/// message) when the folder is absent.
+pub fn shared_clouds() -> Option<Vec<PathBuf>> {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/clouds");
+    let Ok(rd) = std::fs::read_dir(&dir) else {
+        eprintln!(
+            "skipped: {} not found (the shared data sits beside the repository)",
+            dir.display()
+        );
+        return None;
+    };
+    let mut v: Vec<PathBuf> = rd
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "ply"))
+        .collect();
+    v.sort();
+    Some(v)
+}
+
+/// Topological facts of a triangle mesh, computed without trusting the producer.
+#[derive(Debug, Default, Clone, PartialEq)]
+pub struct Topology {
+    pub vertices: usize,
+    pub faces: usize,
+    pub edges: usize,
+    pub boundary_edges: usize,
+    pub non_manifold_edges: usize,
+    pub non_manifold_vertices: usize,
+    pub unused_vertices: usize,
+    pub inconsistent_edges: usize,
+    pub degenerate_faces: usize,
+    pub duplicate_faces: usize,
+    pub components: usize,
+}
+
+impl Topology {
+    /// Euler characteristic `V - E + F` of the used vertices.
+    pub fn euler(&self) -> i64 {
+        (self.vertices - self.unused_vertices) as i64 - self.edges as i64 + self.faces as i64
+    }
+
+    /// Edge- and vertex-manifold, oriented, clean.
+    pub fn is_clean_manifold(&self) -> bool {
+        self.non_manifold_edges == 0
+            && self.non_manifold_vertices == 0
+            && self.inconsistent_edges == 0
+            && self.degenerate_faces == 0
+            && self.duplicate_faces == 0
+            && self.unused_vertices == 0
+    }
+}
+
+/// Check a mesh: every count in [`Topology`].
+pub fn topology(vertices: &[V3], triangles: &[[u32; 3]]) -> Topology {
+    let mut t = Topology {
+        vertices: vertices.len(),
+        faces: triangles.len(),
+        ..Topology::default()
+    };
+    let mut edges: HashMap<(u32, u32), Vec<(usize, bool)>> = HashMap::new();
+    let mut seen_faces = std::collections::HashSet::new();
+    let mut used = vec![false; vertices.len()];
+    for (f, tri) in triangles.iter().enumerate() {
+        let [a, b, c] = *tri;
+        if a == b || b == c || a == c || area(vertices, tri) <= 0.0 {
+            t.degenerate_faces += 1;
+        }
+        let mut key = *tri;
+        key.sort_unstable();
+        if !seen_faces.insert(key) {
+            t.duplicate_faces += 1;
+        }
+        for k in 0..3 {
+            used[tri[k] as usize] = true;
+            let (u, v) = (tri[k], tri[(k + 1) % 3]);
+            edges
+                .entry((u.min(v), u.max(v)))
+                .or_default()
+                .push((f, u < v));
+        }
+    }
+    t.unused_vertices = used.iter().filter(|&&u| !u).count();
+    t.edges = edges.len();
+    for faces in edges.values() {
+        match faces.len() {
+            1 => t.boundary_edges += 1,
+            2 => {
+                if faces[0].1 == faces[1].1 {
+                    t.inconsistent_edges += 1;
+                }
+            }
+            _ => t.non_manifold_edges += 1,
+        }
+    }
+    // Vertex fans: faces around a vertex connected through edges at that vertex.
+    let mut around: Vec<Vec<usize>> = vec![Vec::new(); vertices.len()];
+    for (f, tri) in triangles.iter().enumerate() {
+        for &v in tri {
+            around[v as usize].push(f);
+        }
+    }
+    for (v, faces) in around.iter().enumerate() {
+        if faces.len() < 2 {
+            continue;
+        }
+        let mut comp: Vec<usize> = (0..faces.len()).collect();
+        fn root(c: &mut [usize], mut i: usize) -> usize {
+            while c[i] != i {
+                i = c[i];
+            }
+            i
+        }
+        for i in 0..faces.len() {
+            for j in i + 1..faces.len() {
+                let (a, b) = (triangles[faces[i]], triangles[faces[j]]);
+                let shared = a
+                    .iter()
+                    .filter(|x| **x != v as u32 && b.contains(x))
+                    .count();
+                if shared > 0 {
+                    let (ri, rj) = (root(&mut comp, i), root(&mut comp, j));
+                    comp[ri] = rj;
+                }
+            }
+        }
+        let fans = (0..faces.len())
+            .filter(|&i| root(&mut comp, i) == i)
+            .count();
+        if fans > 1 {
+            t.non_manifold_vertices += 1;
+        }
+    }
+    // Components by faces sharing edges.
+    let mut parent: Vec<usize> = (0..triangles.len()).collect();
+    fn find(p: &mut [usize], mut i: usize) -> usize {
+        while p[i] != i {
+            p[i] = p[p[i]];
+            i = p[i];
+        }
+        i
+    }
+    for faces in edges.values() {
+        for w in faces.windows(2) {
+            let (a, b) = (find(&mut parent, w[0].0), find(&mut parent, w[1].0));
+            parent[a] = b;
+        }
+    }
+    t.components = (0..triangles.len())
+        .filter(|&i| find(&mut parent, i) == i)
+        .count();
+    t
+}
+
+fn area(v: &[V3], t: &[u32; 3]) -> f64 {
+    let p = t.map(|i| v[i as usize].map(|x| x as f64));
+    let a = [p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]];
+    let b = [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]];
+    let c = [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ];
+    0.5 * (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt()
+}
+
+/// Signed volume (positive when faces point outward on a closed surface).
+pub fn signed_volume(v: &[V3], triangles: &[[u32; 3]]) -> f64 {
+    triangles
+        .iter()
+        .map(|t| {
+            let p = t.map(|i| v[i as usize].map(|x| x as f64));
+            p[0][0] * (p[1][1] * p[2][2] - p[1][2] * p[2][1])
+                - p[0][1] * (p[1][0] * p[2][2] - p[1][2] * p[2][0])
+                + p[0][2] * (p[1][0] * p[2][1] - p[1][1] * p[2][0])
+        })
+        .sum::<f64>()
+        / 6.0
+}
+
+/// Distance from `p` to the nearest of the triangles (brute force; tests only).
+pub fn distance_to_mesh(p: V3, v: &[V3], triangles: &[[u32; 3]]) -> f32 {
+    triangles
+        .iter()
+        .map(|t| {
+            vsaqem_core::score::point_triangle_dist2(
+                p,
+                v[t[0] as usize],
+                v[t[1] as usize],
+                v[t[2] as usize],
+            )
+        })
+        .fold(f32::INFINITY, f32::min)
+        .sqrt()
+}

@@ -282,6 +282,57 @@ impl<'buf> Scratch<'_, 'buf> {
     }
 }
 
+/// Something to allocate from: an [`Arena`]'s persistent front, or a [`Scratch`]
+/// scope. Pipeline stages take `&impl Alloc` so the same code can keep its results
+/// for the whole run or only for a scope (a meshing round that may be redone).
+pub trait Alloc<'buf> {
+    /// Allocate `count` copies of `value`.
+    #[allow(clippy::mut_from_ref)]
+    fn try_alloc_slice<T: Copy>(&self, count: usize, value: T) -> Result<&mut [T], Exhausted>;
+
+    /// Copy `src` into a new allocation.
+    #[allow(clippy::mut_from_ref)]
+    fn try_alloc_copy<T: Copy + Default>(&self, src: &[T]) -> Result<&mut [T], Exhausted> {
+        let out = self.try_alloc_slice(src.len(), T::default())?;
+        out.copy_from_slice(src);
+        Ok(out)
+    }
+
+    /// A nested scratch scope.
+    fn scratch<R>(&self, f: impl FnOnce(&Scratch<'_, 'buf>) -> R) -> R;
+
+    /// The arena underneath (statistics, persistent allocations).
+    fn base(&self) -> &Arena<'buf>;
+}
+
+impl<'buf> Alloc<'buf> for Arena<'buf> {
+    fn try_alloc_slice<T: Copy>(&self, count: usize, value: T) -> Result<&mut [T], Exhausted> {
+        Arena::try_alloc_slice(self, count, value)
+    }
+
+    fn scratch<R>(&self, f: impl FnOnce(&Scratch<'_, 'buf>) -> R) -> R {
+        Arena::scratch(self, f)
+    }
+
+    fn base(&self) -> &Arena<'buf> {
+        self
+    }
+}
+
+impl<'buf> Alloc<'buf> for Scratch<'_, 'buf> {
+    fn try_alloc_slice<T: Copy>(&self, count: usize, value: T) -> Result<&mut [T], Exhausted> {
+        Scratch::try_alloc_slice(self, count, value)
+    }
+
+    fn scratch<R>(&self, f: impl FnOnce(&Scratch<'_, 'buf>) -> R) -> R {
+        Scratch::scratch(self, f)
+    }
+
+    fn base(&self) -> &Arena<'buf> {
+        self.arena
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

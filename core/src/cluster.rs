@@ -124,6 +124,164 @@ pub fn try_cluster_in<'a>(
     params: &Params,
     progress: &mut dyn Progress,
 ) -> Result<Clusters<'a>> {
+    try_cluster_state_in(arena, points, nb, planes, diag, params, progress)
+        .map(ClusterState::freeze)
+}
+
+/// A clustering that can still grow: what [`try_cluster_in`] computes, kept
+/// mutable so that meshing can ask for more generators where the mesh leaves
+/// data uncovered ([`ClusterState::refine`]).
+pub struct ClusterState<'a> {
+    labels: &'a mut [u32],
+    generators: &'a mut [V3],
+    seeds: &'a mut [u32],
+    m: usize,
+    /// Statistics so far.
+    pub stats: ClusterStats,
+}
+
+impl<'a> ClusterState<'a> {
+    /// The current clusters.
+    pub fn view(&self) -> Clusters<'_> {
+        Clusters {
+            labels: self.labels,
+            generators: &self.generators[..self.m],
+            seeds: &self.seeds[..self.m],
+            stats: self.stats,
+        }
+    }
+
+    /// The final clusters, for the arena's lifetime.
+    pub fn freeze(self) -> Clusters<'a> {
+        Clusters {
+            labels: self.labels,
+            generators: &self.generators[..self.m],
+            seeds: &self.seeds[..self.m],
+            stats: self.stats,
+        }
+    }
+
+    /// Split each cluster of `targets` at its worst point (largest error, see
+    /// `split`), as room under the cap allows, then relax with
+    /// `params.split_iterations` passes. Returns the generators added.
+    #[allow(clippy::too_many_arguments)]
+    pub fn refine(
+        &mut self,
+        arena: &Arena,
+        points: &[V3],
+        nb: &Neighbours,
+        planes: &Planes,
+        targets: &[u32],
+        params: &Params,
+        progress: &mut dyn Progress,
+    ) -> Result<usize> {
+        let ctx = Ctx {
+            points,
+            nb,
+            planes,
+            lambda_w: params.lambda * planes.mean_weight,
+        };
+        let m = self.m;
+        let room = self.generators.len() - m;
+        let take = targets.len().min(room);
+        if take == 0 {
+            return Ok(0);
+        }
+        let added = arena.scratch(|s| -> Result<usize> {
+            let worst = s.try_alloc_slice::<(f32, u32)>(m, (-1.0, u32::MAX))?;
+            let wanted = s.try_alloc_slice::<bool>(m, false)?;
+            for &t in &targets[..take] {
+                if let Some(w) = wanted.get_mut(t as usize) {
+                    *w = true;
+                }
+            }
+            for (i, &l) in self.labels.iter().enumerate() {
+                let j = l as usize;
+                if j < m && wanted[j] {
+                    let e = split::point_error2(&ctx, i, self.generators[j]);
+                    if e > worst[j].0 {
+                        worst[j] = (e, i as u32);
+                    }
+                }
+            }
+            let mut added = 0;
+            for j in 0..m {
+                let (_, p) = worst[j];
+                if wanted[j]
+                    && p != u32::MAX
+                    && p != self.seeds[j]
+                    && m + added < self.generators.len()
+                {
+                    self.generators[m + added] = points[p as usize];
+                    self.seeds[m + added] = p;
+                    added += 1;
+                }
+            }
+            Ok(added)
+        })?;
+        if added == 0 {
+            return Ok(0);
+        }
+        self.m += added;
+        let grown = self.m;
+        self.stats.energy = arena.scratch(|s| {
+            partition(
+                s,
+                &ctx,
+                &self.generators[..grown],
+                &self.seeds[..grown],
+                self.labels,
+            )
+        })?;
+        let mut st = State {
+            labels: &mut *self.labels,
+            generators: &mut *self.generators,
+            seeds: &mut *self.seeds,
+        };
+        let planned = self.stats.passes + params.split_iterations.max(1);
+        passes(
+            arena,
+            &ctx,
+            &mut st,
+            grown,
+            params.split_iterations,
+            &mut self.stats,
+            progress,
+            planned,
+        )?;
+        self.stats.clusters = grown as u32;
+        self.stats.max_error = relative(
+            split::max_error2(&ctx, self.labels, &self.generators[..grown]),
+            diag_of(&ctx),
+        );
+        Ok(added)
+    }
+}
+
+/// The bounding-box diagonal of the points (for relative errors after refinement).
+fn diag_of(ctx: &Ctx) -> f32 {
+    let mut lo = [f32::INFINITY; 3];
+    let mut hi = [f32::NEG_INFINITY; 3];
+    for p in ctx.points {
+        for a in 0..3 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+    }
+    let e = [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]];
+    libm::sqrtf(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
+}
+
+/// [`try_cluster_in`], keeping the state open for refinement.
+pub fn try_cluster_state_in<'a>(
+    arena: &'a Arena,
+    points: &[V3],
+    nb: &Neighbours,
+    planes: &Planes,
+    diag: f32,
+    params: &Params,
+    progress: &mut dyn Progress,
+) -> Result<ClusterState<'a>> {
     let n = points.len();
     let ctx = Ctx {
         points,
@@ -131,8 +289,6 @@ pub fn try_cluster_in<'a>(
         planes,
         lambda_w: params.lambda * planes.mean_weight,
     };
-    let planned = params.iterations.max(1) + params.split_rounds * params.split_iterations.max(1);
-    tick(progress, Stage::Clustering, 0, planned as u64)?;
     let planned = params.iterations.max(1) + params.split_rounds * params.split_iterations.max(1);
     tick(progress, Stage::Clustering, 0, planned as u64)?;
     let labels = arena.try_alloc_slice::<u32>(n, NONE)?;
@@ -253,10 +409,11 @@ pub fn try_cluster_in<'a>(
         generators,
         seeds,
     } = st;
-    Ok(Clusters {
+    Ok(ClusterState {
         labels,
-        generators: &generators[..m],
-        seeds: &seeds[..m],
+        generators,
+        seeds,
+        m,
         stats,
     })
 }

@@ -37,6 +37,20 @@ pub struct Params {
     pub lambda: f32,
     /// Seed of the deterministic generator initialisation. Default 1.
     pub seed: u64,
+    /// Support distance `ε` of the facet scores (seed Eq. 9), relative to the
+    /// diagonal. Default 0.01.
+    pub epsilon: f32,
+    /// `α` of the coverage term (Eq. 10) in multiples of the average spacing.
+    /// Default 5.
+    pub alpha_scale: f32,
+    /// Weight of the fitting term in the facet score. Default 0.4.
+    pub fitting_weight: f32,
+    /// Weight of the coverage term in the facet score. Default 0.3.
+    pub coverage_weight: f32,
+    /// Branch-and-bound search nodes allowed in facet selection. Default 200 000.
+    pub node_limit: u64,
+    /// Rounds of refinement where clusters are left out of the mesh. Default 2.
+    pub refine_rounds: u32,
 }
 
 impl Default for Params {
@@ -51,6 +65,12 @@ impl Default for Params {
             tolerance: 0.005,
             lambda: 0.001,
             seed: 1,
+            epsilon: 0.01,
+            alpha_scale: 5.0,
+            fitting_weight: 0.4,
+            coverage_weight: 0.3,
+            node_limit: crate::select::DEFAULT_NODE_LIMIT,
+            refine_rounds: 2,
         }
     }
 }
@@ -76,6 +96,19 @@ impl Params {
         }
         if !(self.lambda.is_finite() && self.lambda >= 0.0) {
             return bad("lambda", self.lambda);
+        }
+        for (name, v) in [
+            ("epsilon", self.epsilon),
+            ("alpha_scale", self.alpha_scale),
+            ("fitting_weight", self.fitting_weight),
+            ("coverage_weight", self.coverage_weight),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return bad(name, v);
+            }
+        }
+        if self.epsilon <= 0.0 {
+            return bad("epsilon", self.epsilon);
         }
         if self.clusters >= 1 << 30 {
             return bad("clusters", self.clusters as f32);

@@ -13,6 +13,14 @@ pub enum Stage {
     Quadrics,
     /// Partition, generator update and batch splitting.
     Clustering,
+    /// Candidate edges and facets.
+    Candidates,
+    /// Facet fitting and coverage scores.
+    Scoring,
+    /// Exact facet selection (branch-and-bound).
+    Selection,
+    /// Orientation and manifold output.
+    Output,
 }
 
 impl Stage {
@@ -23,6 +31,10 @@ impl Stage {
             Stage::Neighbours => "neighbours",
             Stage::Quadrics => "quadrics",
             Stage::Clustering => "clustering",
+            Stage::Candidates => "candidates",
+            Stage::Scoring => "scoring",
+            Stage::Selection => "selection",
+            Stage::Output => "output",
         }
     }
 }

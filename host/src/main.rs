@@ -16,6 +16,8 @@ enum Command {
     /// Cluster a point cloud and write the points coloured by cluster plus the
     /// generators (the paper's "input points after clustering").
     Cluster(cmd::cluster::Cmd),
+    /// Reconstruct a mesh from a point cloud (without INPUT: a built-in sample).
+    Reconstruct(cmd::reconstruct::Cmd),
     /// Measure a mesh against a point cloud: distances both ways, topology, triangle
     /// quality.
     Eval(cmd::eval::Cmd),
@@ -27,6 +29,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match &cli.command {
         Command::Cluster(c) => cmd::cluster::run(c),
+        Command::Reconstruct(c) => cmd::reconstruct::run(c),
         Command::Eval(c) => cmd::eval::run(c),
         Command::Render(c) => cmd::render::run(c),
     };

@@ -81,6 +81,7 @@ impl ClusterArgs {
             tolerance: self.tolerance,
             lambda: self.lambda,
             seed: self.seed,
+            ..Params::default()
         }
     }
 }

@@ -2,6 +2,7 @@
 
 pub mod cluster;
 pub mod eval;
+pub mod reconstruct;
 pub mod render;
 
 use std::mem::MaybeUninit;

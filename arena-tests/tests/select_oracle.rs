@@ -1,0 +1,498 @@
+//! Oracle tests of facet selection (`vsaqem_core::select`, DESIGN step 10): the
+//! hand-written branch-and-bound against an exact MIP (good_lp + microlp).
+//!
+//! Properties checked:
+//! - the selection is always feasible (every edge's degree is in its mask) and its
+//!   objective is the reported one;
+//! - whenever the B&B reports optimal, its objective equals the MIP's optimum
+//!   (1e-4 relative); its upper bound never lies below the MIP's optimum;
+//! - `select_bytes` is always enough and not more than 3x what a run uses.
+
+use std::mem::MaybeUninit;
+use std::time::{Duration, Instant};
+
+use good_lp::solvers::{SolutionStatus, WithTimeLimit};
+use good_lp::{microlp, variable, Expression, ProblemVariables, Solution, SolverModel};
+use vsaqem_core::select::{
+    select_bytes, try_select_in, SelectInput, SelectStats, MASK_BORDER, MASK_CLOSED,
+};
+use vsaqem_core::Arena;
+
+/// A selection instance with owned data.
+struct Instance {
+    facets: Vec<[u32; 3]>,
+    scores: Vec<f32>,
+    edges: usize,
+    mask: Vec<u8>,
+    penalty: Vec<f32>,
+}
+
+impl Instance {
+    fn input(&self, node_limit: u64) -> SelectInput<'_> {
+        SelectInput {
+            edge_mask: Some(&self.mask),
+            edge_penalty: Some(&self.penalty),
+            node_limit,
+            ..SelectInput::new(&self.facets, &self.scores, self.edges)
+        }
+    }
+
+    /// Objective of `sel`, or `None` if some edge's degree is not allowed.
+    fn value(&self, sel: &[bool]) -> Option<f64> {
+        let mut deg = vec![0u32; self.edges];
+        let mut v = 0.0;
+        for (f, es) in self.facets.iter().enumerate() {
+            if sel[f] {
+                v += self.scores[f] as f64;
+                for &e in es {
+                    deg[e as usize] += 1;
+                }
+            }
+        }
+        for (e, &d) in deg.iter().enumerate() {
+            if d > 2 || (self.mask[e] >> d) & 1 == 0 {
+                return None;
+            }
+            if d == 1 {
+                v -= self.penalty[e] as f64;
+            }
+        }
+        Some(v)
+    }
+}
+
+/// SplitMix64: a small deterministic generator.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    /// Uniform in [0, 1).
+    fn unit(&mut self) -> f64 {
+        (self.next() >> 11) as f64 / (1u64 << 53) as f64
+    }
+    fn below(&mut self, n: u64) -> u64 {
+        self.next() % n
+    }
+}
+
+/// The 3-cycles of a graph.
+struct Triangles {
+    /// Edge ids of each triangle.
+    facets: Vec<[u32; 3]>,
+    /// Vertex pairs (a < b) of the edges, sorted.
+    edges: Vec<(u32, u32)>,
+    /// Vertices of each triangle.
+    tris: Vec<[u32; 3]>,
+}
+
+/// Facets = all 3-cycles of the graph on `n` vertices given by vertex pairs (a < b).
+fn triangles(n: usize, pairs: &[(u32, u32)]) -> Triangles {
+    let mut pairs = pairs.to_vec();
+    pairs.sort_unstable();
+    pairs.dedup();
+    let mut adj = vec![Vec::new(); n];
+    for (i, &(a, b)) in pairs.iter().enumerate() {
+        adj[a as usize].push((b, i as u32));
+    }
+    let id = |adj: &Vec<Vec<(u32, u32)>>, a: u32, b: u32| {
+        adj[a as usize].iter().find(|x| x.0 == b).map(|x| x.1)
+    };
+    let mut facets = Vec::new();
+    let mut tris = Vec::new();
+    for a in 0..n as u32 {
+        for &(b, ab) in &adj[a as usize] {
+            for &(c, ac) in &adj[a as usize] {
+                if c > b {
+                    if let Some(bc) = id(&adj, b, c) {
+                        facets.push([ab, bc, ac]);
+                        tris.push([a, b, c]);
+                    }
+                }
+            }
+        }
+    }
+    Triangles {
+        facets,
+        edges: pairs,
+        tris,
+    }
+}
+
+/// Random small instance: triangles of a random graph on `verts` vertices.
+fn random_instance(rng: &mut Rng, max_facets: usize) -> Instance {
+    let verts = 8 + rng.below(13) as usize;
+    let p = 0.25 + 0.35 * rng.unit();
+    let mut pairs = Vec::new();
+    for a in 0..verts as u32 {
+        for b in a + 1..verts as u32 {
+            if rng.unit() < p {
+                pairs.push((a, b));
+            }
+        }
+    }
+    let mut facets = triangles(verts, &pairs).facets;
+    // Keep a random subset of at most `max_facets`, then renumber the edges used.
+    while facets.len() > max_facets {
+        let i = rng.below(facets.len() as u64) as usize;
+        facets.swap_remove(i);
+    }
+    let mut map = vec![u32::MAX; pairs.len()];
+    let mut edges = 0u32;
+    for f in facets.iter_mut() {
+        for e in f.iter_mut() {
+            if map[*e as usize] == u32::MAX {
+                map[*e as usize] = edges;
+                edges += 1;
+            }
+            *e = map[*e as usize];
+        }
+    }
+    let scores = (0..facets.len())
+        .map(|_| (2.0 * rng.unit() - 1.0) as f32)
+        .collect();
+    let border = rng.below(3);
+    let mask = (0..edges)
+        .map(|_| match border {
+            0 => MASK_CLOSED,
+            1 if rng.below(3) == 0 => MASK_BORDER,
+            1 => MASK_CLOSED,
+            _ => [MASK_CLOSED, MASK_BORDER, 0b011, 0b001][rng.below(4) as usize],
+        })
+        .collect();
+    let penalty = (0..edges)
+        .map(|_| {
+            if rng.below(4) == 0 {
+                0.0
+            } else {
+                0.5 * rng.unit() as f32
+            }
+        })
+        .collect();
+    Instance {
+        facets,
+        scores,
+        edges: edges as usize,
+        mask,
+        penalty,
+    }
+}
+
+/// How the sphere instance treats its edges.
+#[derive(Clone, Copy, PartialEq, Debug)]
+enum Surface {
+    /// Every edge closed (`{0, 2}`): seed Eq. 8.
+    Closed,
+    /// The cap `z > 0.5` is cut away; edges with both ends above `z = 0.2` (the rim)
+    /// may be borders, at a penalty of 0.2.
+    Open,
+    /// Every edge may be a border, at a penalty of 0.3 (a hard stress case).
+    AllBorder,
+}
+
+/// Candidate facets from random points on a unit sphere: each point joined to its
+/// `k` nearest neighbours, facets = all 3-cycles. Scores: shape quality and size
+/// relative to the spacing (a smooth value, positive for good triangles), minus
+/// noise in [-0.15, 0.15].
+fn sphere_instance(rng: &mut Rng, n: usize, k: usize, surface: Surface) -> Instance {
+    let mut pts = Vec::with_capacity(n);
+    while pts.len() < n {
+        let z = 2.0 * rng.unit() - 1.0;
+        let phi = std::f64::consts::TAU * rng.unit();
+        let r = (1.0 - z * z).sqrt();
+        if surface == Surface::Open && z > 0.5 {
+            continue;
+        }
+        pts.push([r * phi.cos(), r * phi.sin(), z]);
+    }
+    let d2 = |a: [f64; 3], b: [f64; 3]| {
+        (a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)
+    };
+    let mut pairs = Vec::new();
+    let mut spacing = 0.0;
+    for i in 0..n {
+        let mut near: Vec<(f64, usize)> = (0..n)
+            .filter(|&j| j != i)
+            .map(|j| (d2(pts[i], pts[j]), j))
+            .collect();
+        near.sort_by(|a, b| a.partial_cmp(b).unwrap());
+        for &(d, j) in &near[..k] {
+            spacing += d.sqrt();
+            pairs.push((i.min(j) as u32, i.max(j) as u32));
+        }
+    }
+    spacing /= (n * k) as f64;
+    let Triangles {
+        facets,
+        edges: edge_list,
+        tris,
+    } = triangles(n, &pairs);
+    let scores = tris
+        .iter()
+        .map(|t| {
+            let [a, b, c] = [pts[t[0] as usize], pts[t[1] as usize], pts[t[2] as usize]];
+            let (l1, l2, l3) = (d2(a, b), d2(b, c), d2(c, a));
+            let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+            let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+            let x = [
+                u[1] * v[2] - u[2] * v[1],
+                u[2] * v[0] - u[0] * v[2],
+                u[0] * v[1] - u[1] * v[0],
+            ];
+            let area = 0.5 * (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt();
+            let quality = 4.0 * 3f64.sqrt() * area / (l1 + l2 + l3);
+            let size = l1.max(l2).max(l3).sqrt() / spacing;
+            (quality + 0.4 - 0.45 * size * size - 0.15 * (2.0 * rng.unit() - 1.0)) as f32
+        })
+        .collect();
+    let (mask, penalty) = edge_list
+        .iter()
+        .map(|&(a, b)| match surface {
+            Surface::Closed => (MASK_CLOSED, 0.0),
+            Surface::Open if pts[a as usize][2] > 0.2 && pts[b as usize][2] > 0.2 => {
+                (MASK_BORDER, 0.2)
+            }
+            Surface::Open => (MASK_CLOSED, 0.0),
+            Surface::AllBorder => (MASK_BORDER, 0.3),
+        })
+        .unzip();
+    Instance {
+        facets,
+        scores,
+        edges: edge_list.len(),
+        mask,
+        penalty,
+    }
+}
+
+/// The exact optimum by MIP, or `None` if microlp did not prove it in time.
+fn mip_optimum(inst: &Instance, limit: Duration) -> Option<f64> {
+    let mut vars = ProblemVariables::new();
+    let b: Vec<_> = (0..inst.facets.len())
+        .map(|_| vars.add(variable().binary()))
+        .collect();
+    let mut incident = vec![Vec::new(); inst.edges];
+    for (f, es) in inst.facets.iter().enumerate() {
+        for &e in es {
+            incident[e as usize].push(f);
+        }
+    }
+    let mut objective = Expression::default();
+    for (f, &w) in inst.scores.iter().enumerate() {
+        objective.add_mul(w as f64, b[f]);
+    }
+    // Degree d of edge e: Σ b_f = z1 + 2 z2 with z_d binary "degree is d", z1 + z2 <= 1;
+    // z_d exists only when d is allowed; z1 carries the penalty.
+    let mut constraints = Vec::new();
+    for (e, fs) in incident.iter().enumerate() {
+        if fs.is_empty() {
+            continue;
+        }
+        let m = inst.mask[e];
+        let mut degree = Expression::default();
+        for &f in fs {
+            degree += b[f];
+        }
+        let mut chosen = Expression::default();
+        let mut levels = Expression::default();
+        let mut single = Expression::default();
+        for d in 1..=2u8 {
+            if (m >> d) & 1 == 1 {
+                let z = vars.add(variable().binary());
+                chosen.add_mul(d as f64, z);
+                levels += z;
+                if d == 1 {
+                    objective.add_mul(-(inst.penalty[e] as f64), z);
+                    single += z;
+                }
+            }
+        }
+        constraints.push(degree.eq(chosen));
+        constraints.push(levels.leq(1.0));
+        // Valid and much tighter for the LP: a selected facet needs a selected partner
+        // on the edge unless the edge ends with degree 1.
+        for &f in fs {
+            let mut others = single.clone();
+            for &g in fs {
+                if g != f {
+                    others += b[g];
+                }
+            }
+            constraints.push(Expression::from(b[f]).leq(others));
+        }
+    }
+    let mut model = vars
+        .maximise(objective.clone())
+        .using(microlp)
+        .with_time_limit(limit.as_secs_f64());
+    for c in constraints {
+        model = model.with(c);
+    }
+    let sol = model.solve().ok()?;
+    if !matches!(sol.status(), SolutionStatus::Optimal) {
+        return None;
+    }
+    Some(objective.eval_with(&sol))
+}
+
+/// Run the B&B in an arena of exactly `select_bytes`; check feasibility, the
+/// reported objective and the memory budget.
+fn run(inst: &Instance, node_limit: u64) -> (Vec<bool>, SelectStats) {
+    let budget = select_bytes(inst.facets.len(), inst.edges);
+    let mut buf = vec![MaybeUninit::<u8>::uninit(); budget];
+    let arena = Arena::new(&mut buf);
+    let (sel, stats) = try_select_in(&arena, &inst.input(node_limit), &mut |_, _| true)
+        .expect("select_bytes must be enough");
+    assert!(arena.peak() <= budget);
+    if inst.facets.len() >= 10 {
+        assert!(
+            budget <= 3 * arena.peak(),
+            "budget {budget} > 3 x peak {}",
+            arena.peak()
+        );
+    }
+    let sel = sel.to_vec();
+    let v = inst
+        .value(&sel)
+        .expect("the selection must satisfy every edge mask");
+    assert!(
+        (v - stats.objective).abs() <= 1e-5 * v.abs().max(1.0),
+        "{v} vs {}",
+        stats.objective
+    );
+    assert!(stats.upper_bound >= stats.objective - 1e-9 && stats.gap >= 0.0);
+    (sel, stats)
+}
+
+fn close(a: f64, b: f64) -> bool {
+    (a - b).abs() <= 1e-4 * a.abs().max(b.abs()).max(1.0)
+}
+
+#[test]
+fn bnb_matches_the_mip_on_random_small_instances() {
+    let mut rng = Rng(0x5e1ec7);
+    let (mut compared, mut nontrivial) = (0, 0);
+    for case in 0..300 {
+        let inst = random_instance(&mut rng, 40);
+        let (_, st) = run(&inst, 1_000_000);
+        assert!(st.optimal, "case {case}: not solved, gap {}", st.gap);
+        // A tiny node limit: still feasible, and the bound still holds.
+        let (_, cut) = run(&inst, case as u64 % 3);
+        let Some(exact) = mip_optimum(&inst, Duration::from_secs(10)) else {
+            continue;
+        };
+        compared += 1;
+        nontrivial += (exact > 1e-9) as u32;
+        assert!(
+            close(st.objective, exact),
+            "case {case}: B&B {} vs MIP {exact}",
+            st.objective
+        );
+        assert!(
+            cut.upper_bound >= exact - 1e-4 * exact.abs().max(1.0),
+            "case {case}: bound {} < {exact}",
+            cut.upper_bound
+        );
+        if cut.optimal {
+            assert!(close(cut.objective, exact), "case {case}");
+        }
+    }
+    assert!(compared >= 290, "the MIP proved only {compared} of 300");
+    assert!(
+        nontrivial >= 100,
+        "only {nontrivial} instances select anything"
+    );
+}
+
+/// Sphere instances of the size DESIGN step 10 meets: the B&B proves them optimal
+/// and agrees with the MIP. Prints what it took (`--nocapture`).
+#[test]
+fn bnb_matches_the_mip_on_sphere_candidates() {
+    let mut rng = Rng(0x5fe5e);
+    let cases = [
+        (60, 6, Surface::Closed),
+        (150, 6, Surface::Closed),
+        (100, 7, Surface::Closed),
+        (150, 7, Surface::Closed),
+        (100, 8, Surface::Closed),
+        (120, 7, Surface::Open),
+        (150, 8, Surface::Open),
+        (60, 6, Surface::AllBorder),
+    ];
+    for (i, &(n, k, surface)) in cases.iter().enumerate() {
+        let inst = sphere_instance(&mut rng, n, k, surface);
+        let t = Instant::now();
+        let (sel, st) = run(&inst, 1_000_000);
+        let bnb = t.elapsed();
+        let t = Instant::now();
+        let exact = mip_optimum(&inst, Duration::from_secs(20));
+        let mip = t.elapsed();
+        eprintln!(
+            "sphere {i} ({n} points, k {k}, {surface:?}): {} facets, {} edges -> {} selected, objective {:.4}; \
+             B&B optimal {} in {} nodes, {:.0} ms ({} components, largest {}, {} forced); MIP {:.0} ms",
+            inst.facets.len(),
+            inst.edges,
+            sel.iter().filter(|&&s| s).count(),
+            st.objective,
+            st.optimal,
+            st.nodes,
+            bnb.as_secs_f64() * 1e3,
+            st.components,
+            st.largest_component,
+            st.forced,
+            mip.as_secs_f64() * 1e3,
+        );
+        assert!(st.optimal, "sphere {i}: gap {}", st.gap);
+        let exact = exact.unwrap_or_else(|| panic!("sphere {i}: the MIP did not finish"));
+        assert!(
+            close(st.objective, exact),
+            "sphere {i}: B&B {} vs MIP {exact}",
+            st.objective
+        );
+    }
+}
+
+/// A table of 24 sphere instances per surface kind, B&B only (no MIP): how many
+/// nodes and how long. `cargo test -p arena-tests --test select_oracle -- --ignored --nocapture`
+/// (`SURFACE=open|border` for the other kinds, `LIMIT=n` for the node limit).
+#[test]
+#[ignore]
+fn sphere_benchmark() {
+    let limit: u64 = std::env::var("LIMIT")
+        .map(|v| v.parse().unwrap())
+        .unwrap_or(200_000);
+    let surface = match std::env::var("SURFACE").as_deref() {
+        Ok("open") => Surface::Open,
+        Ok("border") => Surface::AllBorder,
+        _ => Surface::Closed,
+    };
+    let mut rng = Rng(0xabcdef);
+    let (mut total, mut unsolved) = (0.0, 0);
+    for case in 0..24 {
+        let n = [60, 100, 150][case % 3];
+        let k = [6, 7, 8][(case / 3) % 3];
+        let inst = sphere_instance(&mut rng, n, k, surface);
+        let t = Instant::now();
+        let (_, st) = run(&inst, limit);
+        let ms = t.elapsed().as_secs_f64() * 1e3;
+        total += ms;
+        unsolved += !st.optimal as u32;
+        eprintln!(
+            "case {case:2}: n {n:3} k {k} F {:4}: objective {:8.3} bound {:8.3} optimal {:5} nodes {:6} components {:2} largest {:4} {:6.0} ms",
+            inst.facets.len(),
+            st.objective,
+            st.upper_bound,
+            st.optimal,
+            st.nodes,
+            st.components,
+            st.largest_component,
+            ms
+        );
+    }
+    eprintln!("{surface:?}: total {total:.0} ms, {unsolved} not proved within {limit} nodes");
+}

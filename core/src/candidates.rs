@@ -1,0 +1,559 @@
+//! Candidate edges and facets (seed section 3.5, DESIGN step 8).
+//!
+//! Two clusters are joined by a candidate edge when both labels occur in the
+//! closed symmetrised neighbourhood of one point (a point and its neighbours):
+//! this includes every k-NN pair with different labels (the seed's rule) and also
+//! the diagonals where four clusters meet, without which such a quad would have
+//! edges with a single candidate facet and the 0-or-2 constraint would remove it
+//! and everything connected to it. Candidate facets are the 3-cycles of that
+//! graph. Generators closer than `1e-6` of the diagonal are merged first (two
+//! clusters converging onto one corner would otherwise give zero-length edges and
+//! duplicate faces), and facets of near-zero area are dropped before scoring.
+//!
+//! Output is sorted: edges `(a, b)` with `a < b` ascending, facets `(a, b, c)` with
+//! `a < b < c` ascending, so everything downstream is deterministic.
+//!
+//! Memory: member lists 4 bytes per point plus O(clusters), then 8 bytes per edge
+//! and 24 per facet. Cost: O(n k) for the adjacency, then one sorted-list
+//! intersection per edge for the facets.
+
+use crate::arena::Alloc;
+use crate::error::Result;
+use crate::knn::Neighbours;
+use crate::math::{cross, dist2, norm, sub, V3};
+
+/// Points of each cluster, contiguous.
+#[derive(Clone, Copy)]
+pub struct Members<'a> {
+    /// `list[start[j] .. start[j+1]]` are the points of cluster `j`, ascending.
+    pub start: &'a [u32],
+    /// Point indices grouped by cluster.
+    pub list: &'a [u32],
+}
+
+impl<'a> Members<'a> {
+    /// The points of cluster `j`.
+    pub fn of(&self, j: usize) -> &'a [u32] {
+        &self.list[self.start[j] as usize..self.start[j + 1] as usize]
+    }
+
+    /// Number of clusters.
+    pub fn len(&self) -> usize {
+        self.start.len().saturating_sub(1)
+    }
+
+    /// Whether there are no clusters.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// Group points by the representative of their label (counting sort): a merged
+/// cluster's points belong to its representative. Labels `>= rep.len()` are
+/// skipped.
+pub fn try_members_in<'a, 'b, A: Alloc<'b>>(
+    arena: &'a A,
+    labels: &[u32],
+    rep: &[u32],
+) -> Result<Members<'a>> {
+    let m = rep.len();
+    let group = |l: u32| rep.get(l as usize).map(|&r| r as usize);
+    let start = arena.try_alloc_slice::<u32>(m + 1, 0)?;
+    for &l in labels {
+        if let Some(r) = group(l) {
+            start[r + 1] += 1;
+        }
+    }
+    for j in 0..m {
+        start[j + 1] += start[j];
+    }
+    let list = arena.try_alloc_slice::<u32>(start[m] as usize, 0)?;
+    arena.scratch(|s| -> Result<()> {
+        let cursor = s.try_alloc_copy::<u32>(&start[..m])?;
+        for (i, &l) in labels.iter().enumerate() {
+            if let Some(r) = group(l) {
+                let c = &mut cursor[r];
+                list[*c as usize] = i as u32;
+                *c += 1;
+            }
+        }
+        Ok(())
+    })?;
+    Ok(Members { start, list })
+}
+
+/// Candidate edges and facets over the clusters.
+#[derive(Clone, Copy)]
+pub struct Candidates<'a> {
+    /// Representative of each cluster after merging coincident generators (a
+    /// cluster is its own representative unless merged into a lower one).
+    pub rep: &'a [u32],
+    /// Candidate edges `(a, b)`, `a < b`, between representatives, ascending.
+    pub edges: &'a [[u32; 2]],
+    /// `edges[edge_start[a] .. edge_start[a+1]]` are the edges `(a, *)`.
+    pub edge_start: &'a [u32],
+    /// Candidate facets `(a, b, c)`, `a < b < c`, ascending.
+    pub facets: &'a [[u32; 3]],
+    /// Ids of the edges `(a,b)`, `(a,c)`, `(b,c)` of each facet.
+    pub facet_edges: &'a [[u32; 3]],
+    /// Generators merged into another (coincident).
+    pub merged: u32,
+    /// Facets dropped as degenerate.
+    pub degenerate: u32,
+}
+
+impl Candidates<'_> {
+    /// Id of edge `(a, b)`, `a < b`, if it is a candidate.
+    pub fn edge_id(&self, a: u32, b: u32) -> Option<u32> {
+        let lo = *self.edge_start.get(a as usize)? as usize;
+        let hi = *self.edge_start.get(a as usize + 1)? as usize;
+        self.edges[lo..hi]
+            .binary_search_by(|e| e[1].cmp(&b))
+            .ok()
+            .map(|i| (lo + i) as u32)
+    }
+}
+
+/// Whether the triangle is degenerate: an edge shorter than `tol` or an area
+/// below `tol²` (both absolute).
+pub fn degenerate(a: V3, b: V3, c: V3, tol: f32) -> bool {
+    let t2 = tol * tol;
+    if dist2(a, b) <= t2 || dist2(b, c) <= t2 || dist2(a, c) <= t2 {
+        return true;
+    }
+    0.5 * norm(cross(sub(b, a), sub(c, a))) <= t2
+}
+
+/// Generators closer than this fraction of the diagonal are merged.
+pub const COINCIDENT: f32 = 1e-6;
+
+/// Representative of each cluster: the lowest-index cluster whose generator is
+/// within `COINCIDENT * diag` (transitively). Returns the map and the number of
+/// merges.
+pub fn try_merge_in<'a, 'b, A: Alloc<'b>>(
+    arena: &'a A,
+    generators: &[V3],
+    diag: f32,
+) -> Result<(&'a [u32], u32)> {
+    let rep = arena.try_alloc_slice::<u32>(generators.len(), 0)?;
+    let merged = merge_coincident(arena, generators, COINCIDENT * diag, rep)?;
+    Ok((rep, merged))
+}
+
+/// Build the candidates from the cluster representatives `rep` (see
+/// [`try_merge_in`]) and `members` grouped by them; `generators[j]` is cluster
+/// `j`'s vertex and `diag` the bounding-box diagonal.
+#[allow(clippy::too_many_arguments)]
+pub fn try_candidates_in<'a, 'b, A: Alloc<'b>>(
+    arena: &'a A,
+    nb: &Neighbours,
+    labels: &[u32],
+    rep: &'a [u32],
+    merged: u32,
+    members: &Members,
+    generators: &[V3],
+    diag: f32,
+) -> Result<Candidates<'a>> {
+    let m = generators.len();
+    let tol = COINCIDENT * diag;
+    // Upper adjacency of every representative: distinct reps b > a that touch a.
+    let edge_start = arena.try_alloc_slice::<u32>(m + 1, 0)?;
+    // a ~ b when both labels occur in one point's closed symmetric neighbourhood.
+    // Points whose neighbourhood holds label a are the members of a and their
+    // neighbours; from those, every other label in their neighbourhood.
+    let stamp_pass = |a: usize, stamp: &mut [u32], f: &mut dyn FnMut(u32)| {
+        let mut offer = |q: u32, stamp: &mut [u32]| {
+            let Some(&b) = rep.get(labels[q as usize] as usize) else {
+                return;
+            };
+            if (b as usize) > a && stamp[b as usize] != a as u32 {
+                stamp[b as usize] = a as u32;
+                f(b);
+            }
+        };
+        for &m0 in members.of(a) {
+            for p in core::iter::once(m0).chain(nb.symmetric(m0 as usize)) {
+                offer(p, stamp);
+                for q in nb.symmetric(p as usize) {
+                    offer(q, stamp);
+                }
+            }
+        }
+    };
+    arena.scratch(|s| -> Result<()> {
+        let stamp = s.try_alloc_slice::<u32>(m, u32::MAX)?;
+        for a in 0..m {
+            if rep[a] as usize != a {
+                continue;
+            }
+            let mut count = 0u32;
+            stamp_pass(a, stamp, &mut |_| count += 1);
+            edge_start[a + 1] = count;
+        }
+        Ok(())
+    })?;
+    for a in 0..m {
+        edge_start[a + 1] += edge_start[a];
+    }
+    let total = edge_start[m] as usize;
+    let edges = arena.try_alloc_slice::<[u32; 2]>(total, [0, 0])?;
+    arena.scratch(|s| -> Result<()> {
+        let stamp = s.try_alloc_slice::<u32>(m, u32::MAX)?;
+        for a in 0..m {
+            if rep[a] as usize != a {
+                continue;
+            }
+            let lo = edge_start[a] as usize;
+            let mut w = lo;
+            stamp_pass(a, stamp, &mut |b| {
+                edges[w] = [a as u32, b];
+                w += 1;
+            });
+            edges[lo..w].sort_unstable();
+        }
+        Ok(())
+    })?;
+    let edges: &'a [[u32; 2]] = edges;
+    let edge_start: &'a [u32] = edge_start;
+    // Facets: for each edge (a, b), the c > b adjacent to both.
+    let upper =
+        |a: u32| &edges[edge_start[a as usize] as usize..edge_start[a as usize + 1] as usize];
+    let for_each_facet = |f: &mut dyn FnMut(u32, u32, u32, u32)| {
+        for (e, &[a, b]) in edges.iter().enumerate() {
+            let (mut i, mut j) = (upper(a), upper(b));
+            // Both lists ascending by second endpoint: merge-intersect, c > b.
+            while let (Some(x), Some(y)) = (i.first(), j.first()) {
+                if x[1] <= b || x[1] < y[1] {
+                    i = &i[1..];
+                } else if y[1] < x[1] {
+                    j = &j[1..];
+                } else {
+                    f(a, b, x[1], e as u32);
+                    i = &i[1..];
+                    j = &j[1..];
+                }
+            }
+        }
+    };
+    let keep = |a: u32, b: u32, c: u32| {
+        !degenerate(
+            generators[a as usize],
+            generators[b as usize],
+            generators[c as usize],
+            tol,
+        )
+    };
+    let mut count = 0usize;
+    let mut dropped = 0u32;
+    for_each_facet(&mut |a, b, c, _| {
+        if keep(a, b, c) {
+            count += 1;
+        } else {
+            dropped += 1;
+        }
+    });
+    let facets = arena.try_alloc_slice::<[u32; 3]>(count, [0; 3])?;
+    let facet_edges = arena.try_alloc_slice::<[u32; 3]>(count, [0; 3])?;
+    let mut w = 0usize;
+    let find = |a: u32, b: u32| -> u32 {
+        let lo = edge_start[a as usize] as usize;
+        let list = upper(a);
+        // Present by construction (c came from both lists).
+        lo as u32 + list.binary_search_by(|e| e[1].cmp(&b)).unwrap_or(0) as u32
+    };
+    for_each_facet(&mut |a, b, c, e_ab| {
+        if keep(a, b, c) {
+            facets[w] = [a, b, c];
+            facet_edges[w] = [e_ab, find(a, c), find(b, c)];
+            w += 1;
+        }
+    });
+    Ok(Candidates {
+        rep,
+        edges,
+        edge_start,
+        facets,
+        facet_edges,
+        merged,
+        degenerate: dropped,
+    })
+}
+
+/// `rep[j]`: the lowest-index cluster whose generator lies within `tol` of `j`'s
+/// (transitively via sorting on x). Returns how many were merged.
+fn merge_coincident<'b, A: Alloc<'b>>(
+    arena: &A,
+    generators: &[V3],
+    tol: f32,
+    rep: &mut [u32],
+) -> Result<u32> {
+    let m = generators.len();
+    for (j, r) in rep.iter_mut().enumerate() {
+        *r = j as u32;
+    }
+    let t2 = tol * tol;
+    arena.scratch(|s| -> Result<u32> {
+        let order = s.try_alloc_slice::<u32>(m, 0)?;
+        for (i, o) in order.iter_mut().enumerate() {
+            *o = i as u32;
+        }
+        order.sort_unstable_by(|&a, &b| {
+            generators[a as usize][0]
+                .total_cmp(&generators[b as usize][0])
+                .then(a.cmp(&b))
+        });
+        let mut merged = 0;
+        for i in 0..m {
+            let a = order[i] as usize;
+            let mut k = i + 1;
+            while k < m && generators[order[k] as usize][0] - generators[a][0] <= tol {
+                let b = order[k] as usize;
+                if dist2(generators[a], generators[b]) <= t2 {
+                    let (ra, rb) = (root(rep, a), root(rep, b));
+                    if ra != rb {
+                        let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
+                        rep[hi] = lo as u32;
+                        merged += 1;
+                    }
+                }
+                k += 1;
+            }
+        }
+        for j in 0..m {
+            rep[j] = root(rep, j) as u32;
+        }
+        Ok(merged)
+    })
+}
+
+fn root(rep: &[u32], mut j: usize) -> usize {
+    while rep[j] as usize != j {
+        j = rep[j] as usize;
+    }
+    j
+}
+
+/// Two facets on one edge whose half-planes are closer than this angle fold onto
+/// each other; at most one of them is kept. Cosine of 20 degrees.
+pub const FOLD_COS: f32 = 0.939_692_6;
+
+/// Candidates without fold-overs: facets in descending score order (ties by
+/// index) are kept unless a kept facet on one of their edges lies within 20
+/// degrees of them around that edge. A surface never folds back onto itself, and
+/// without this rule two triangulations of one quad stacked as a flat pocket would
+/// both be worth selecting. Returns the kept facet indices, ascending.
+pub fn try_unfold_in<'a, 'b, A: Alloc<'b>>(
+    arena: &'a A,
+    cand: &Candidates,
+    scores: &[f32],
+    generators: &[V3],
+) -> Result<&'a [u32]> {
+    let nf = cand.facets.len();
+    let ne = cand.edges.len();
+    let keep = arena.try_alloc_slice::<bool>(nf, false)?;
+    let count = arena.scratch(|s| -> Result<usize> {
+        // Kept facets per edge, at most two matter (a third would fold or be
+        // rejected by the selection anyway): store up to 4.
+        let kept = s.try_alloc_slice::<[u32; 4]>(ne, [u32::MAX; 4])?;
+        let order = s.try_alloc_slice::<u32>(nf, 0)?;
+        for (i, o) in order.iter_mut().enumerate() {
+            *o = i as u32;
+        }
+        order.sort_unstable_by(|&a, &b| {
+            scores[b as usize]
+                .total_cmp(&scores[a as usize])
+                .then(a.cmp(&b))
+        });
+        // Unit direction from the edge (a, b) to the third vertex, perpendicular
+        // to the edge.
+        let wing = |e: usize, f: usize| -> V3 {
+            let [a, b] = cand.edges[e];
+            let c = cand.facets[f]
+                .iter()
+                .copied()
+                .find(|&x| x != a && x != b)
+                .unwrap_or(a);
+            let (pa, pb, pc) = (
+                generators[a as usize],
+                generators[b as usize],
+                generators[c as usize],
+            );
+            let t = sub(pb, pa);
+            let lt = norm(t);
+            let w = sub(pc, pa);
+            let along = if lt > 0.0 {
+                dot3(w, t) / (lt * lt)
+            } else {
+                0.0
+            };
+            let perp = [
+                w[0] - along * t[0],
+                w[1] - along * t[1],
+                w[2] - along * t[2],
+            ];
+            let lp = norm(perp);
+            if lp > 0.0 {
+                perp.map(|x| x / lp)
+            } else {
+                [0.0; 3]
+            }
+        };
+        let mut count = 0;
+        for &f in order.iter() {
+            let f = f as usize;
+            let folds = cand.facet_edges[f].iter().any(|&e| {
+                let e = e as usize;
+                let w = wing(e, f);
+                kept[e]
+                    .iter()
+                    .take_while(|&&g| g != u32::MAX)
+                    .any(|&g| dot3(w, wing(e, g as usize)) > FOLD_COS)
+            });
+            if folds {
+                continue;
+            }
+            keep[f] = true;
+            count += 1;
+            for &e in &cand.facet_edges[f] {
+                if let Some(slot) = kept[e as usize].iter_mut().find(|g| **g == u32::MAX) {
+                    *slot = f as u32;
+                }
+            }
+        }
+        Ok(count)
+    })?;
+    let out = arena.try_alloc_slice::<u32>(count, 0)?;
+    let mut w = 0;
+    for (i, &k) in keep.iter().enumerate() {
+        if k {
+            out[w] = i as u32;
+            w += 1;
+        }
+    }
+    Ok(out)
+}
+
+fn dot3(a: V3, b: V3) -> f32 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// Sides of the candidate edges: around each edge, facets whose wings (the
+/// half-planes from the edge to their third vertex) lie within 20 degrees of each
+/// other form a *fold group*, of which a surface can use at most one facet.
+#[derive(Clone, Copy)]
+pub struct FoldGroups<'a> {
+    /// For each facet and each of its three edges (in `facet_edges` order), the
+    /// fold group it belongs to there, or `u32::MAX` when it is alone on its side.
+    pub facet_groups: &'a [[u32; 3]],
+    /// Number of groups (each with at least two facets).
+    pub count: u32,
+}
+
+/// Group the facets around every edge by the angle of their wings: sorted
+/// around the edge, consecutive wings closer than 20 degrees share a group
+/// (chains included). Cost: O(Σ facets per edge · log).
+pub fn try_fold_groups_in<'a, 'b, A: Alloc<'b>>(
+    arena: &'a A,
+    cand: &Candidates,
+    generators: &[V3],
+) -> Result<FoldGroups<'a>> {
+    let nf = cand.facets.len();
+    let ne = cand.edges.len();
+    let facet_groups = arena.try_alloc_slice::<[u32; 3]>(nf, [u32::MAX; 3])?;
+    let count = arena.scratch(|s| -> Result<u32> {
+        // Edge -> facets incidence (CSR) with the slot of the edge in the facet.
+        let start = s.try_alloc_slice::<u32>(ne + 1, 0)?;
+        for fe in cand.facet_edges {
+            for &e in fe {
+                start[e as usize + 1] += 1;
+            }
+        }
+        for e in 0..ne {
+            start[e + 1] += start[e];
+        }
+        let inc = s.try_alloc_slice::<(u32, u8)>(start[ne] as usize, (0, 0))?;
+        let cursor = s.try_alloc_copy::<u32>(&start[..ne])?;
+        for (f, fe) in cand.facet_edges.iter().enumerate() {
+            for (k, &e) in fe.iter().enumerate() {
+                inc[cursor[e as usize] as usize] = (f as u32, k as u8);
+                cursor[e as usize] += 1;
+            }
+        }
+        let largest = (0..ne)
+            .map(|e| (start[e + 1] - start[e]) as usize)
+            .max()
+            .unwrap_or(0);
+        let ang = s.try_alloc_slice::<(f32, u32, u8)>(largest, (0.0, 0, 0))?;
+        let limit = 20.0f32.to_radians();
+        let mut groups = 0u32;
+        for e in 0..ne {
+            let list = &inc[start[e] as usize..start[e + 1] as usize];
+            if list.len() < 2 {
+                continue;
+            }
+            let [a, b] = cand.edges[e];
+            let (pa, pb) = (generators[a as usize], generators[b as usize]);
+            let t = sub(pb, pa);
+            let lt = norm(t);
+            if lt <= 0.0 {
+                continue;
+            }
+            let t = t.map(|x| x / lt);
+            // A frame (u, v) perpendicular to the edge.
+            let helper = if t[0].abs() < 0.6 {
+                [1.0, 0.0, 0.0]
+            } else {
+                [0.0, 1.0, 0.0]
+            };
+            let u = cross(t, helper);
+            let lu = norm(u);
+            let u = u.map(|x| x / lu);
+            let v = cross(t, u);
+            for (i, &(f, k)) in list.iter().enumerate() {
+                let c = cand.facets[f as usize]
+                    .iter()
+                    .copied()
+                    .find(|&x| x != a && x != b)
+                    .unwrap_or(a);
+                let w = sub(generators[c as usize], pa);
+                ang[i] = (libm::atan2f(dot3(w, v), dot3(w, u)), f, k);
+            }
+            let ang = &mut ang[..list.len()];
+            ang.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+            // Start the circular sweep after the widest gap, so no group wraps.
+            let n = ang.len();
+            let gap = |i: usize| {
+                let (x, y) = (ang[i].0, ang[(i + 1) % n].0);
+                if i + 1 == n {
+                    y + core::f32::consts::TAU - x
+                } else {
+                    y - x
+                }
+            };
+            let widest = (0..n)
+                .max_by(|&i, &j| gap(i).total_cmp(&gap(j)).then(j.cmp(&i)))
+                .unwrap_or(0);
+            let mut run_start = 0;
+            for step in 0..n {
+                let i = (widest + 1 + step) % n;
+                let ends = step + 1 == n || gap(i) >= limit;
+                if ends {
+                    let len = step + 1 - run_start;
+                    if len >= 2 {
+                        for r in run_start..=step {
+                            let (_, f, k) = ang[(widest + 1 + r) % n];
+                            facet_groups[f as usize][k as usize] = groups;
+                        }
+                        groups += 1;
+                    }
+                    run_start = step + 1;
+                }
+            }
+        }
+        Ok(groups)
+    })?;
+    Ok(FoldGroups {
+        facet_groups,
+        count,
+    })
+}

@@ -1,0 +1,287 @@
+//! `vsaqem reconstruct`: point cloud to mesh (PLY, OBJ or OFF by extension).
+
+use crate::cmd::arena_buffer;
+use crate::cmd::cluster::{read_input, ClusterArgs, InputArgs};
+use crate::input::Prepared;
+use crate::io::{write_atomic, write_mesh, MeshFormat};
+use crate::json;
+use crate::progress::StageClock;
+use clap::Args;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+use vsaqem_core::{Error, Params, Reconstruction};
+
+/// Meshing parameters; defaults are `vsaqem_core::Params::default()`.
+#[derive(Args, Debug, Clone)]
+pub struct MeshArgs {
+    /// Support distance of the facet fitting term, fraction of the diagonal.
+    #[arg(long, default_value_t = Params::default().epsilon)]
+    pub epsilon: f32,
+    /// Alpha of the coverage term, in multiples of the average point spacing.
+    #[arg(long, default_value_t = Params::default().alpha_scale)]
+    pub alpha_scale: f32,
+    /// Weight of the fitting term in the facet score.
+    #[arg(long, default_value_t = Params::default().fitting_weight)]
+    pub fitting: f32,
+    /// Weight of the coverage term in the facet score.
+    #[arg(long, default_value_t = Params::default().coverage_weight)]
+    pub coverage: f32,
+    /// Branch-and-bound node limit of the facet selection.
+    #[arg(long, default_value_t = Params::default().node_limit)]
+    pub node_limit: u64,
+    /// Refinement rounds where parts of the data are left out of the mesh.
+    #[arg(long, default_value_t = Params::default().refine_rounds)]
+    pub refine_rounds: u32,
+}
+
+/// `vsaqem reconstruct`.
+#[derive(Args, Debug)]
+pub struct Cmd {
+    #[command(flatten)]
+    pub input: InputArgs,
+    #[command(flatten)]
+    pub cluster: ClusterArgs,
+    #[command(flatten)]
+    pub mesh: MeshArgs,
+    /// Output mesh: .ply, .obj or .off.
+    #[arg(short, long, default_value = "mesh.ply")]
+    pub output: PathBuf,
+    /// Also write the report as JSON to this file.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    /// No progress bar.
+    #[arg(short, long)]
+    pub quiet: bool,
+}
+
+impl Cmd {
+    /// All core parameters.
+    pub fn params(&self) -> Params {
+        Params {
+            epsilon: self.mesh.epsilon,
+            alpha_scale: self.mesh.alpha_scale,
+            fitting_weight: self.mesh.fitting,
+            coverage_weight: self.mesh.coverage,
+            node_limit: self.mesh.node_limit,
+            refine_rounds: self.mesh.refine_rounds,
+            ..self.cluster.params()
+        }
+    }
+}
+
+/// Run the command.
+pub fn run(cmd: &Cmd) -> Result<(), String> {
+    let format =
+        MeshFormat::from_path(&cmd.output).map_err(|e| format!("{}: {e}", cmd.output.display()))?;
+    let mut clock = StageClock::new(!cmd.quiet);
+    let input = read_input(&cmd.input, &mut clock)?;
+    let params = cmd.params();
+    let mut bytes = vsaqem_core::reconstruct_bytes(input.points.len(), &params);
+    loop {
+        let mut buf = arena_buffer(bytes);
+        let arena = vsaqem_core::Arena::new(&mut buf);
+        let out = vsaqem_core::reconstruct(
+            &arena,
+            &input.points,
+            input.normals.as_deref(),
+            &params,
+            &mut clock,
+        );
+        clock.finish();
+        let out = match out {
+            Err(Error::Exhausted(e)) if bytes < usize::MAX / 4 => {
+                // The meshing part of the budget is an estimate: retry bigger.
+                eprintln!(
+                    "note: arena of {bytes} bytes was too small ({e}); retrying with {}",
+                    bytes * 2
+                );
+                bytes *= 2;
+                clock = StageClock::new(!cmd.quiet);
+                continue;
+            }
+            other => other.map_err(|e| format!("{}: {e}", input.name))?,
+        };
+        let t = Instant::now();
+        write_output(&cmd.output, format, &input, &out)?;
+        clock.record("write", t.elapsed());
+        let report = Report {
+            input: &input,
+            out: &out,
+            params: &params,
+            clock: &clock,
+            arena_bytes: bytes,
+            output: &cmd.output,
+        };
+        print!("{}", report.text());
+        if let Some(path) = &cmd.report {
+            let text = report.json();
+            write_atomic(path, |w| w.write_all(text.as_bytes())).map_err(|e| e.to_string())?;
+        }
+        return Ok(());
+    }
+}
+
+fn write_output(
+    path: &Path,
+    format: MeshFormat,
+    input: &Prepared,
+    out: &Reconstruction,
+) -> Result<(), String> {
+    let vertices: Vec<[f64; 3]> = out
+        .mesh
+        .vertices
+        .iter()
+        .map(|&v| input.frame.to_file(v))
+        .collect();
+    write_atomic(path, |w| {
+        write_mesh(w, format, &vertices, out.mesh.triangles)
+    })
+    .map_err(|e| e.to_string())
+}
+
+struct Report<'r> {
+    input: &'r Prepared,
+    out: &'r Reconstruction<'r>,
+    params: &'r Params,
+    clock: &'r StageClock,
+    arena_bytes: usize,
+    output: &'r Path,
+}
+
+fn ms(d: std::time::Duration) -> f64 {
+    d.as_secs_f64() * 1e3
+}
+
+impl Report<'_> {
+    fn text(&self) -> String {
+        let c = &self.out.clustered.stats;
+        let cl = &c.cluster;
+        let m = &self.out.meshing;
+        let sel = &m.selection;
+        let mesh = &m.mesh;
+        let n = self.input.points.len();
+        let diag = self.out.clustered.bounds.diag as f64 * self.input.frame.scale;
+        let normals = if self.input.normals.is_some() {
+            "normals given"
+        } else {
+            "normals by PCA"
+        };
+        let times: Vec<String> = self
+            .clock
+            .times
+            .iter()
+            .map(|(k, d)| format!("{k} {:.1} ms", ms(*d)))
+            .collect();
+        let solver = if sel.optimal {
+            format!("optimal ({} nodes)", sel.nodes)
+        } else {
+            format!(
+                "node limit reached, gap {:.3}% ({} nodes)",
+                sel.gap * 100.0,
+                sel.nodes
+            )
+        };
+        let closed = if mesh.boundary_edges == 0 && mesh.uncovered_clusters == 0 {
+            "watertight".to_string()
+        } else if mesh.boundary_edges == 0 {
+            format!(
+                "closed, but {} clusters ({} points) are not covered",
+                mesh.uncovered_clusters, mesh.uncovered_points
+            )
+        } else {
+            format!(
+                "{} boundary edges, {} uncovered clusters ({} points)",
+                mesh.boundary_edges, mesh.uncovered_clusters, mesh.uncovered_points
+            )
+        };
+        format!(
+            "input      {}: {n} points, {normals}, bounding-box diagonal {diag:.6}\n\
+             clusters   {} ({} initial, +{} by splitting, +{} by refinement in {} rounds), max error {:.3}% of the diagonal\n\
+             candidates {} edges, {} facets ({} degenerate, {} folding onto better ones, {} generators merged), {:.1} supports per facet\n\
+             selection  {solver}, {} independent parts (largest {} facets), {} facets fixed by propagation\n\
+             mesh       {} vertices, {} faces, {} components, {closed}\n\
+             time       {}, total {:.1} ms\n\
+             memory     arena peak {} bytes ({:.1} bytes/point), {} reserved\n\
+             output     {}\n",
+            self.input.name,
+            cl.clusters,
+            cl.initial_clusters,
+            cl.splits,
+            m.refine_added,
+            m.refine_rounds,
+            cl.max_error * 100.0,
+            m.candidate_edges,
+            m.candidate_facets,
+            m.degenerate_facets,
+            m.folded_facets,
+            m.merged_generators,
+            m.mean_supports,
+            sel.components,
+            sel.largest_component,
+            sel.forced,
+            mesh.vertices,
+            mesh.faces,
+            mesh.components,
+            times.join(", "),
+            ms(self.clock.total()),
+            m.peak,
+            m.peak as f64 / n as f64,
+            self.arena_bytes,
+            self.output.display(),
+        )
+    }
+
+    fn json(&self) -> String {
+        let c = &self.out.clustered.stats;
+        let cl = &c.cluster;
+        let m = &self.out.meshing;
+        let sel = &m.selection;
+        let mesh = &m.mesh;
+        let mut times = json::Obj::default();
+        for (k, d) in &self.clock.times {
+            times.num(k, ms(*d));
+        }
+        times.num("total", ms(self.clock.total()));
+        let mut o = json::Obj::default();
+        o.str("input", &self.input.name)
+            .num("points", self.input.points.len() as f64)
+            .bool("normals_given", self.input.normals.is_some())
+            .num(
+                "diagonal",
+                self.out.clustered.bounds.diag as f64 * self.input.frame.scale,
+            )
+            .num("clusters", cl.clusters as f64)
+            .num("initial_clusters", cl.initial_clusters as f64)
+            .num("splits", cl.splits as f64)
+            .num("refine_rounds", m.refine_rounds as f64)
+            .num("refine_added", m.refine_added as f64)
+            .num("passes", cl.passes as f64)
+            .num("max_error_relative", cl.max_error as f64)
+            .num("tolerance_relative", self.params.tolerance as f64)
+            .num("candidate_edges", m.candidate_edges as f64)
+            .num("candidate_facets", m.candidate_facets as f64)
+            .num("degenerate_facets", m.degenerate_facets as f64)
+            .num("folded_facets", m.folded_facets as f64)
+            .num("merged_generators", m.merged_generators as f64)
+            .bool("solver_optimal", sel.optimal)
+            .num("solver_gap", sel.gap)
+            .num("solver_nodes", sel.nodes as f64)
+            .num("solver_objective", sel.objective)
+            .num("solver_upper_bound", sel.upper_bound)
+            .num("solver_components", sel.components as f64)
+            .num("solver_largest_component", sel.largest_component as f64)
+            .num("vertices", mesh.vertices as f64)
+            .num("faces", mesh.faces as f64)
+            .num("boundary_edges", mesh.boundary_edges as f64)
+            .num("components", mesh.components as f64)
+            .num("non_orientable_components", mesh.non_orientable as f64)
+            .num("split_vertices", mesh.split_vertices as f64)
+            .num("uncovered_clusters", mesh.uncovered_clusters as f64)
+            .num("uncovered_points", mesh.uncovered_points as f64)
+            .raw("time_ms", &times.finish().replace('\n', "\n  "))
+            .num("arena_peak_bytes", m.peak as f64)
+            .num("arena_reserved_bytes", self.arena_bytes as f64)
+            .str("output", &self.output.display().to_string());
+        o.finish() + "\n"
+    }
+}
