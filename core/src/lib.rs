@@ -190,8 +190,8 @@ pub struct MeshingStats {
     pub candidate_edges: u32,
     /// Candidate facets (last round).
     pub candidate_facets: u32,
-    /// Facets dropped because they fold onto a better one (last round).
-    pub folded_facets: u32,
+    /// Fold groups (sets of facets of which at most one may be used) (last round).
+    pub fold_groups: u32,
     /// Facets dropped as degenerate (last round).
     pub degenerate_facets: u32,
     /// Generators merged as coincident (last round).
@@ -304,29 +304,39 @@ fn mesh_round<'a>(
         };
         let scores = score::try_scores_in(s, points, &members, &cand, gens, nb.spacing, diag, &sp)?;
         progress::tick(progress, Stage::Scoring, 1, 1)?;
-        // Drop fold-overs, then select among the rest.
-        let kept = candidates::try_unfold_in(s, &cand, scores.score, gens)?;
-        let nk = kept.len();
-        let k_edges = s.try_alloc_slice::<[u32; 3]>(nk, [0; 3])?;
-        let k_scores = s.try_alloc_slice::<f32>(nk, 0.0)?;
-        for (w, &f) in kept.iter().enumerate() {
-            k_edges[w] = cand.facet_edges[f as usize];
-            k_scores[w] = scores.score[f as usize];
+        // Constraints: candidate edges (0 or 2 facets) and fold groups (at most one
+        // facet per 20-degree wedge around an edge), ids E.. for the groups.
+        let groups = candidates::try_fold_groups_in(s, &cand, gens)?;
+        let ne = cand.edges.len();
+        let nf = cand.facets.len();
+        let masks = s.try_alloc_slice::<u8>(ne + groups.count as usize, select::MASK_CLOSED)?;
+        for m in masks[ne..].iter_mut() {
+            *m = select::MASK_AT_MOST_ONE;
         }
-        progress::tick(progress, Stage::Selection, 0, nk as u64)?;
+        let cons = s.try_alloc_slice::<[u32; 6]>(nf, [u32::MAX; 6])?;
+        for f in 0..nf {
+            let e = cand.facet_edges[f];
+            let g = groups.facet_groups[f];
+            cons[f][..3].copy_from_slice(&e);
+            let mut w = 3;
+            for k in 0..3 {
+                if g[k] != u32::MAX {
+                    cons[f][w] = ne as u32 + g[k];
+                    w += 1;
+                }
+            }
+        }
+        progress::tick(progress, Stage::Selection, 0, nf as u64)?;
         let input = select::SelectInput {
+            edge_mask: Some(masks),
             node_limit: params.node_limit,
-            ..select::SelectInput::new(k_edges, k_scores, cand.edges.len())
+            ..select::SelectInput::new(cons, scores.score, masks.len())
         };
         let mut cancelled = false;
-        let (chosen, sel) = select::try_select_in(arena, &input, &mut |done, total| {
+        let (selected, sel) = select::try_select_in(arena, &input, &mut |done, total| {
             cancelled = progress::tick(progress, Stage::Selection, done, total).is_err();
             !cancelled
         })?;
-        let selected = s.try_alloc_slice::<bool>(cand.facets.len(), false)?;
-        for (w, &f) in kept.iter().enumerate() {
-            selected[f as usize] = chosen[w];
-        }
         progress::tick(progress, Stage::Output, 0, 1)?;
         let mesh = mesh::try_mesh_in(arena, s, &cand, &members, selected, gens)?;
         // Clusters with points but no face.
@@ -354,7 +364,7 @@ fn mesh_round<'a>(
             MeshingStats {
                 candidate_edges: cand.edges.len() as u32,
                 candidate_facets: cand.facets.len() as u32,
-                folded_facets: (cand.facets.len() - nk) as u32,
+                fold_groups: groups.count,
                 degenerate_facets: cand.degenerate,
                 merged_generators: cand.merged,
                 mean_supports: scores.mean_supports,

@@ -2,8 +2,9 @@
 //! by branch-and-bound in arena memory.
 //!
 //! ## What it optimises
-//! E candidate edges, F candidate facets (each a triangle on 3 distinct edges) with
-//! real scores `w_f` (any sign). Choose `b_f ∈ {0, 1}` maximising
+//! E constraints, F candidate facets (each a triangle on 3 distinct edges, and in
+//! up to 3 fold groups) with real scores `w_f` (any sign). Choose `b_f ∈ {0, 1}`
+//! maximising
 //!
 //! ```text
 //!   Σ_f w_f b_f  −  Σ_e pen_e · [deg_e = 1]          (seed Eq. 7, plus a border penalty)
@@ -18,6 +19,16 @@
 //! with [`Error::BadParameter`]): then selecting nothing is always feasible, so
 //! every answer, even a cut-short one, satisfies all constraints.
 //!
+//! *Fold groups* forbid fold-overs. Candidates are all 3-cycles of the cluster
+//! graph, so both triangulations of a flat quad are candidates, and with the edge
+//! rule alone the two together close a flat tetrahedron (a pocket) that blocks the
+//! real surface. A surface never folds back onto itself, so around each edge the
+//! caller groups the facets whose half-planes lie within 20 degrees of each other,
+//! and at most one facet of a group may be selected: `Σ_{f ∈ G} b_f ≤ 1`. A group
+//! is just one more constraint ("edge" below) with mask `{0, 1}`
+//! ([`MASK_AT_MOST_ONE`]) and no penalty; a facet then has 3 to 6 constraints, and
+//! everything below treats edges and groups alike, by their masks.
+//!
 //! ## How (deterministic; ties go to the lower index)
 //! 1. *Propagation* to a fixpoint, at the root and at every node: an edge with `s`
 //!    selected and `u` undecided facets can end at a degree in
@@ -28,24 +39,25 @@
 //! 2. *Components*: after root propagation the undecided facets split into groups
 //!    that share no edge; each is solved on its own, smallest first.
 //! 3. *Bound* (admissible, Lagrangian decomposition): every undecided facet splits
-//!    its score into three shares `λ_{f,e}` over its edges (`Σ_e λ_{f,e} = w_f`).
+//!    its score into shares `λ_{f,e}` over its 3 to 6 edges (`Σ_e λ_{f,e} = w_f`).
 //!    Alone, an edge can take any `k` of its undecided facets with `s + k ∈ A_e`;
 //!    its best is `max_k (top-k shares) − pen_e [s + k = 1]`. Summing that over the
 //!    edges, plus the selected facets' scores, bounds every completion for *every*
 //!    split, since each facet's score is counted once through its shares. The best
 //!    split gives the LP relaxation with each edge's convex hull (which includes
 //!    "a selected facet needs a partner on a closed edge"). The split is improved
-//!    by coordinate descent (one facet at a time, re-split so that its three edges
+//!    by coordinate descent (one facet at a time, re-split so that its edges
 //!    value it equally: the exact minimiser for that facet), on a smoothed dual with
 //!    a falling temperature at the root, then locally, only where something changed,
 //!    at every node. Each edge caches its three best shares and its term, so a node
 //!    costs work in proportion to what changed, plus one pass over the component.
-//!    When the three edges of every facet agree, their picks are a feasible
+//!    When the edges of every facet agree, their picks are a feasible
 //!    completion worth exactly the bound: an incumbent for free.
 //! 4. *Reduced-cost fixing*: the cached top-3 give, per facet, the bound with the
 //!    facet forced on or off; a value that cannot beat the incumbent is excluded.
-//! 5. *Incumbent*: a greedy dive guided by the bound; rounding (facets two of whose
-//!    edges pick them, repaired by removals only, so always feasible); dropping
+//! 5. *Incumbent*: a greedy dive guided by the bound; rounding (facets at least
+//!    half of whose edges pick them, repaired by removals only, so always feasible);
+//!    dropping
 //!    connected pieces worth less than nothing; then a large-neighbourhood search:
 //!    around facets where the bound disagrees with the incumbent, re-solve a ball of
 //!    32 to 256 facets exactly with the rest fixed.
@@ -63,8 +75,9 @@
 //! its component (rounding room for the floating-point bound).
 //!
 //! ## Cost
-//! Memory: [`select_bytes`], about `150 F + 90 E` bytes, all from the arena, of
-//! which only the `F`-byte result is persistent. Time: O(F + E) for the checks,
+//! Memory: [`select_bytes_for`], about `65 F + 36 I + 90 E` bytes for `I` used
+//! constraint slots (3 F to 6 F; [`select_bytes`] assumes 6 F), all from the arena,
+//! of which only the `F`-byte result is persistent. Time: O(F + E) for the checks,
 //! incidence, propagation and components; O(incidences) per root sweep (150 per
 //! component); per search node, a pass over the component's facets and edges plus
 //! the re-splits around what changed, for the node and for its 12 probed children.
@@ -73,8 +86,12 @@
 //! penalised open rim) are proved optimal in 3 ms to 3 s and at most 3000 nodes; a
 //! node costs 0.5-1 ms in a component of about 1000 facets. With *every* edge a
 //! possible (penalised) border, a few such instances are not proved within 200 000
-//! nodes: the LP gap is larger there. The search is exponential in the
-//! worst case; the node limit caps it.
+//! nodes: the LP gap is larger there. With geometric fold groups added, the
+//! closed instances take 20-200 nodes and 0.04-1 s (a node costs 2-5 ms), but
+//! open-rim and all-border ones often are not proved within 3000 nodes: the bound
+//! treats a group and its edge separately, so it does not see that two facets of
+//! one group cannot partner on that edge (the LP gap stays near the group-free
+//! one). The search is exponential in the worst case; the node limit caps it.
 
 use core::mem::{align_of, size_of};
 
@@ -85,19 +102,30 @@ use crate::error::{Error, Result};
 pub const MASK_CLOSED: u8 = 0b101;
 /// Edge mask "degree 0, 1 or 2": an edge that may lie on the border of an open surface.
 pub const MASK_BORDER: u8 = 0b111;
+/// Constraint mask "at most one": a fold group (facets folded onto each other
+/// around an edge, of which a surface uses at most one).
+pub const MASK_AT_MOST_ONE: u8 = 0b011;
+/// An unused slot of [`SelectInput::facet_edges`].
+pub const UNUSED: u32 = u32::MAX;
+/// Constraints one facet may belong to at most: its 3 edges and up to 3 fold groups.
+pub const MAX_CONSTRAINTS: usize = 6;
 /// A node limit that proves every instance of up to about a thousand facets we
 /// measured (they took at most 3000 nodes) and stops a hard one within about
 /// 10-20 s on a desktop core.
 pub const DEFAULT_NODE_LIMIT: u64 = 20_000;
 
-/// One selection problem. Edge ids index `0..edge_count`.
+/// One selection problem. Constraint ("edge") ids index `0..edge_count`; a fold
+/// group is a constraint like an edge, with mask [`MASK_AT_MOST_ONE`].
 #[derive(Clone, Copy, Debug)]
 pub struct SelectInput<'a> {
-    /// The three distinct edge ids of each candidate facet.
-    pub facet_edges: &'a [[u32; 3]],
+    /// The constraints of each candidate facet: its three edges and up to three
+    /// fold groups, in any slots; unused slots hold [`UNUSED`]. At least three
+    /// slots are used and the ids of one facet are distinct. [`widen`] and
+    /// [`join`] build the rows.
+    pub facet_edges: &'a [[u32; MAX_CONSTRAINTS]],
     /// Score of each facet (seed Eq. 7's `F_f + F_c`); finite, any sign.
     pub scores: &'a [f32],
-    /// Number of candidate edges.
+    /// Number of constraints (candidate edges and fold groups).
     pub edge_count: usize,
     /// Allowed degrees of each edge (bit d = degree d allowed; bit 0 required,
     /// bits above 2 forbidden). `None`: every edge is [`MASK_CLOSED`].
@@ -112,7 +140,11 @@ pub struct SelectInput<'a> {
 impl<'a> SelectInput<'a> {
     /// A closed-surface problem ([`MASK_CLOSED`] everywhere, no penalties,
     /// [`DEFAULT_NODE_LIMIT`]).
-    pub fn new(facet_edges: &'a [[u32; 3]], scores: &'a [f32], edge_count: usize) -> Self {
+    pub fn new(
+        facet_edges: &'a [[u32; MAX_CONSTRAINTS]],
+        scores: &'a [f32],
+        edge_count: usize,
+    ) -> Self {
         SelectInput {
             facet_edges,
             scores,
@@ -122,6 +154,29 @@ impl<'a> SelectInput<'a> {
             node_limit: DEFAULT_NODE_LIMIT,
         }
     }
+}
+
+/// A facet row with its three edges and no fold group.
+pub fn widen(edges: [u32; 3]) -> [u32; MAX_CONSTRAINTS] {
+    join(edges, [UNUSED; 3], 0)
+}
+
+/// A facet row with its three edges and the fold groups it is in at them
+/// ([`UNUSED`] where it is in none); group `g` becomes constraint `first_group + g`
+/// (usually the edge count).
+pub fn join(edges: [u32; 3], groups: [u32; 3], first_group: u32) -> [u32; MAX_CONSTRAINTS] {
+    let g = |i: usize| {
+        if groups[i] == UNUSED {
+            UNUSED
+        } else {
+            // Out of range (so rejected) rather than silently unused on overflow.
+            first_group
+                .checked_add(groups[i])
+                .filter(|&v| v != UNUSED)
+                .unwrap_or(UNUSED - 1)
+        }
+    };
+    [edges[0], edges[1], edges[2], g(0), g(1), g(2)]
 }
 
 /// What a run found and how sure it is.
@@ -191,16 +246,41 @@ fn arr<T>(count: usize) -> usize {
 }
 
 /// An upper bound on the arena bytes [`try_select_in`] uses for `facets` facets
-/// and `edges` edges (persistent result plus peak scratch): about
-/// `150 F + 90 E` bytes.
+/// and `edges` constraints (edges and fold groups), whatever their rows hold
+/// (persistent result plus peak scratch): about `280 F + 90 E` bytes. See
+/// [`select_bytes_for`] for a tighter figure.
 pub fn select_bytes(facets: usize, edges: usize) -> usize {
-    let (f, e) = (facets, edges);
-    let f3 = f.saturating_mul(3);
+    bytes(facets, edges, facets.saturating_mul(MAX_CONSTRAINTS))
+}
+
+/// The arena bytes [`try_select_in`] uses for `input` at most: about
+/// `65 F + 36 I + 90 E` bytes for `I` used constraint slots (`173 F + 90 E` with
+/// edges only). Cost O(F).
+pub fn select_bytes_for(input: &SelectInput<'_>) -> usize {
+    bytes(
+        input.facet_edges.len(),
+        input.edge_count,
+        incidence_count(input.facet_edges),
+    )
+}
+
+/// Used slots of the facet rows.
+fn incidence_count(rows: &[[u32; MAX_CONSTRAINTS]]) -> usize {
+    rows.iter()
+        .map(|r| r.iter().filter(|&&e| e != UNUSED).count())
+        .sum()
+}
+
+/// Arena bytes for `f` facets, `e` constraints and `ni` incidences.
+fn bytes(f: usize, e: usize, ni: usize) -> usize {
     // Keep in step with the allocations in `try_select_in`.
     let list = [
         arr::<bool>(f),                  // result
         arr::<u32>(e.saturating_add(1)), // start
-        arr::<u32>(f3),                  // inc
+        arr::<u32>(ni),                  // inc
+        arr::<u32>(f.saturating_add(1)), // fstart
+        arr::<u32>(ni),                  // fcon
+        arr::<u32>(ni),                  // owner
         arr::<u8>(f),                    // state
         arr::<u32>(e),                   // sel
         arr::<u32>(e),                   // und
@@ -209,10 +289,10 @@ pub fn select_bytes(facets: usize, edges: usize) -> usize {
         arr::<u32>(f),                   // facet queue
         arr::<bool>(f),                  // facet queue flags
         arr::<u32>(f),                   // trail
-        arr::<f64>(f3),                  // share
+        arr::<f64>(ni),                  // share
         arr::<u8>(f),                    // picks
-        arr::<f64>(f3),                  // con
-        arr::<f64>(f3),                  // coff
+        arr::<f64>(ni),                  // con
+        arr::<f64>(ni),                  // coff
         arr::<[u32; 3]>(e),              // top_id
         arr::<[f64; 3]>(e),              // top_v
         arr::<f64>(e),                   // term
@@ -247,7 +327,7 @@ fn bad(name: &'static str, value: f32) -> Error {
 fn validate(input: &SelectInput<'_>) -> Result<()> {
     let nf = input.facet_edges.len();
     let ne = input.edge_count;
-    if nf > (u32::MAX / 3) as usize {
+    if nf > (u32::MAX / MAX_CONSTRAINTS as u32) as usize {
         return Err(bad("facet_edges.len", nf as f32));
     }
     if ne > (u32::MAX - 1) as usize {
@@ -257,7 +337,13 @@ fn validate(input: &SelectInput<'_>) -> Result<()> {
         return Err(bad("scores.len", input.scores.len() as f32));
     }
     for (f, (edges, &w)) in input.facet_edges.iter().zip(input.scores).enumerate() {
+        if edges.iter().filter(|&&e| e != UNUSED).count() < 3 {
+            return Err(bad("facet_edges (fewer than 3 used slots)", f as f32));
+        }
         for (i, &e) in edges.iter().enumerate() {
+            if e == UNUSED {
+                continue;
+            }
             if e as usize >= ne {
                 return Err(bad("facet_edges (edge id >= edge_count)", e as f32));
             }
@@ -340,6 +426,22 @@ fn others(id: &[u32; 3], v: &[f64; 3], x: u32) -> (f64, f64) {
     }
 }
 
+/// The shares `t − c_i` with `k t = w + Σ c_i` over `k = c.len()` edges, the last
+/// one taking the rounding so that they sum to `w` exactly as far as floating
+/// point allows.
+fn split(w: f64, c: &[f64]) -> [f64; MAX_CONSTRAINTS] {
+    let k = c.len();
+    let t = c.iter().fold(w, |a, &b| a + b) / k as f64;
+    let mut out = [0.0; MAX_CONSTRAINTS];
+    let mut rest = w;
+    for i in 0..k - 1 {
+        out[i] = t - c[i];
+        rest -= out[i];
+    }
+    out[k - 1] = rest;
+    out
+}
+
 /// A first-in first-out queue of distinct ids below its capacity.
 struct Fifo<'a> {
     buf: &'a mut [u32],
@@ -397,16 +499,24 @@ struct Budget<'r> {
     report: &'r mut dyn FnMut() -> bool,
 }
 
-/// All solver state, over scratch slices. Facet `f`'s incidence on its `i`-th edge
-/// is the number `x = 3f + i`; `share[x]` is its share of `w_f` on that edge,
-/// `con[x]` / `coff[x]` what that edge's term loses if `f` is forced on / off.
+/// All solver state, over scratch slices. "Edge" here means any constraint (an
+/// edge or a fold group; only the mask tells them apart). Facet `f`'s incidences
+/// are the numbers `x` in `fstart[f]..fstart[f + 1]`, one per used slot of its
+/// row: `fcon[x]` is the edge, `owner[x] = f`, `x − fstart[f]` its bit in
+/// `picks`; `share[x]` is its share of `w_f` on that edge, `con[x]` / `coff[x]`
+/// what that edge's term loses if `f` is forced on / off.
 ///
 /// The *problem* is the set of facets and edges being bounded (a component or a
 /// neighbourhood): `in_f` / `in_e` mark it, and for its edges `term`, `top_*`,
 /// `con`, `coff` and `picks` are kept in step with the state and the shares
 /// (edges whose state changed wait in `dlist` until [`Solver::flush`]).
 struct Solver<'a> {
-    fe: &'a [[u32; 3]],
+    /// CSR: the incidences of facet f are `fstart[f]..fstart[f + 1]`.
+    fstart: &'a [u32],
+    /// The edge of each incidence.
+    fcon: &'a [u32],
+    /// The facet of each incidence.
+    owner: &'a [u32],
     w: &'a [f32],
     masks: Option<&'a [u8]>,
     pens: Option<&'a [f32]>,
@@ -423,7 +533,7 @@ struct Solver<'a> {
     trail: &'a mut [u32],
     trail_len: usize,
     share: &'a mut [f64],
-    /// Bit i set: the facet's i-th edge picks it.
+    /// Bit i set: the facet's i-th edge (incidence `fstart[f] + i`) picks it.
     picks: &'a mut [u8],
     con: &'a mut [f64],
     coff: &'a mut [f64],
@@ -459,7 +569,7 @@ struct Solver<'a> {
     best: &'a mut [bool],
 }
 
-impl Solver<'_> {
+impl<'a> Solver<'a> {
     fn mask(&self, e: usize) -> u8 {
         self.masks.map_or(MASK_CLOSED, |m| m[e])
     }
@@ -472,17 +582,43 @@ impl Solver<'_> {
         self.start[e] as usize..self.start[e + 1] as usize
     }
 
+    /// The incidences of facet `f`.
+    fn slots(&self, f: usize) -> core::ops::Range<usize> {
+        self.fstart[f] as usize..self.fstart[f + 1] as usize
+    }
+
+    /// The edges of facet `f` (borrowed from the input, not from `self`).
+    fn edges_of(&self, f: usize) -> &'a [u32] {
+        let fcon: &'a [u32] = self.fcon;
+        &fcon[self.fstart[f] as usize..self.fstart[f + 1] as usize]
+    }
+
+    /// The facet of incidence `x`.
+    fn of(&self, x: u32) -> usize {
+        self.owner[x as usize] as usize
+    }
+
+    /// `picks` of a facet all of whose edges pick it.
+    fn all_pick(&self, f: usize) -> u8 {
+        ((1u32 << (self.fstart[f + 1] - self.fstart[f])) - 1) as u8
+    }
+
+    /// Whether the edges of undecided facet `f` agree on it (all pick it or none).
+    fn agreed(&self, f: usize) -> bool {
+        self.picks[f] == 0 || self.picks[f] == self.all_pick(f)
+    }
+
     fn d_on(&self, f: usize) -> f64 {
-        self.con[3 * f] + self.con[3 * f + 1] + self.con[3 * f + 2]
+        self.slots(f).map(|x| self.con[x]).sum()
     }
 
     fn d_off(&self, f: usize) -> f64 {
-        self.coff[3 * f] + self.coff[3 * f + 1] + self.coff[3 * f + 2]
+        self.slots(f).map(|x| self.coff[x]).sum()
     }
 
     /// Queue the problem edges of `f` for a cache refresh.
     fn touch(&mut self, f: usize) {
-        for e in self.fe[f] {
+        for &e in self.edges_of(f) {
             let e = e as usize;
             if self.in_e[e] && !self.dirty[e] {
                 self.dirty[e] = true;
@@ -500,7 +636,7 @@ impl Solver<'_> {
         if on && self.in_f[f] {
             self.fixed += self.w[f] as f64;
         }
-        for e in self.fe[f] {
+        for &e in self.edges_of(f) {
             let e = e as usize;
             self.und[e] -= 1;
             if on {
@@ -522,7 +658,7 @@ impl Solver<'_> {
             if on && self.in_f[f] {
                 self.fixed -= self.w[f] as f64;
             }
-            for e in self.fe[f] {
+            for &e in self.edges_of(f) {
                 let e = e as usize;
                 self.und[e] += 1;
                 if on {
@@ -555,7 +691,7 @@ impl Solver<'_> {
                 continue;
             };
             for k in self.incidences(e) {
-                let f = (self.inc[k] / 3) as usize;
+                let f = self.of(self.inc[k]);
                 if self.state[f] == UND {
                     self.assign(f, on);
                 }
@@ -571,7 +707,7 @@ impl Solver<'_> {
         let mut id = [u32::MAX; 3];
         for k in self.incidences(e) {
             let x = self.inc[k];
-            if self.state[(x / 3) as usize] != UND {
+            if self.state[self.of(x)] != UND {
                 continue;
             }
             let sv = self.share[x as usize];
@@ -600,8 +736,8 @@ impl Solver<'_> {
         for k in self.incidences(e) {
             let x = self.inc[k];
             let xi = x as usize;
-            let f = xi / 3;
-            let bit = 1u8 << (x % 3);
+            let f = self.of(x);
+            let bit = 1u8 << (x - self.fstart[f]);
             if self.state[f] == UND {
                 let (o1, o2) = others(&id, &v, x);
                 let off = edge_term(s, u - 1, m, p, o1, o2).0;
@@ -644,7 +780,7 @@ impl Solver<'_> {
             self.dirty[e] = false;
             self.refresh(e);
             for k in self.incidences(e) {
-                let f = (self.inc[k] / 3) as usize;
+                let f = self.of(self.inc[k]);
                 if self.state[f] == UND {
                     self.fq.push(f);
                 }
@@ -707,22 +843,23 @@ impl Solver<'_> {
     fn disagreements(&self, facets: &[u32]) -> u32 {
         facets
             .iter()
-            .filter(|&&f| {
-                self.state[f as usize] == UND && !matches!(self.picks[f as usize], 0 | 0b111)
-            })
+            .filter(|&&f| self.state[f as usize] == UND && !self.agreed(f as usize))
             .count() as u32
     }
 
     /// Coordinate descent on one facet, from the caches: re-split its score so that
-    /// its three edges value it equally, which exactly minimises the bound over its
-    /// shares (the others fixed). A real change refreshes its edges and queues the
-    /// other facets on them.
+    /// its `k` edges value it equally, which exactly minimises the bound over its
+    /// shares (the others fixed): edge i's term is `max(off_i, λ_i + on_i)`, whose
+    /// sum under `Σ λ_i = w` is at least `Σ off_i + max(0, w + Σ (on_i − off_i))`,
+    /// reached when every `λ_i + on_i − off_i` is equal. A real change refreshes
+    /// its edges and queues the other facets on them.
     fn rebalance(&mut self, f: usize) {
-        let mut c = [0.0f64; 3];
-        for (i, ci) in c.iter_mut().enumerate() {
-            let e = self.fe[f][i] as usize;
+        let mut c = [0.0f64; MAX_CONSTRAINTS];
+        let r = self.slots(f);
+        for (ci, x) in c.iter_mut().zip(r) {
+            let e = self.fcon[x] as usize;
             let (s, u, m, p) = (self.sel[e], self.und[e], self.mask(e), self.pen(e));
-            let (o1, o2) = others(&self.top_id[e], &self.top_v[e], (3 * f + i) as u32);
+            let (o1, o2) = others(&self.top_id[e], &self.top_v[e], x as u32);
             let on = edge_term(s + 1, u - 1, m, p, o1, o2).0;
             let off = edge_term(s, u - 1, m, p, o1, o2).0;
             if !(on.is_finite() && off.is_finite()) {
@@ -733,20 +870,22 @@ impl Solver<'_> {
         self.resplit(f, c);
     }
 
-    /// Set facet `f`'s shares to `t − c_i` with `3t = w_f + Σ c_i`, and when that moves
-    /// them, refresh its edges and queue the other facets on them.
-    fn resplit(&mut self, f: usize, c: [f64; 3]) {
-        let w = self.w[f] as f64;
-        let t = (w + c[0] + c[1] + c[2]) / 3.0;
-        let b = 3 * f;
-        let new0 = t - c[0];
-        let new1 = t - c[1];
-        let new = [new0, new1, w - new0 - new1];
-        if (0..3).all(|i| (new[i] - self.share[b + i]).abs() <= self.eps) {
+    /// Set facet `f`'s shares to `t − c_i` with `k t = w_f + Σ c_i` (`k` its edge
+    /// count), and when that moves them, refresh its edges and queue the other
+    /// facets on them.
+    fn resplit(&mut self, f: usize, c: [f64; MAX_CONSTRAINTS]) {
+        let r = self.slots(f);
+        let new = split(self.w[f] as f64, &c[..r.len()]);
+        let new = &new[..r.len()];
+        if new
+            .iter()
+            .zip(&self.share[r.clone()])
+            .all(|(a, b)| (a - b).abs() <= self.eps)
+        {
             return;
         }
-        self.share[b..b + 3].copy_from_slice(&new);
-        for e in self.fe[f] {
+        self.share[r].copy_from_slice(new);
+        for &e in self.edges_of(f) {
             let e = e as usize;
             self.refresh_top(e);
             if !self.mstale[e] {
@@ -755,7 +894,7 @@ impl Solver<'_> {
                 self.mlen += 1;
             }
             for k in self.incidences(e) {
-                let g = (self.inc[k] / 3) as usize;
+                let g = self.of(self.inc[k]);
                 if g != f && self.state[g] == UND {
                     self.fq.push(g);
                 }
@@ -789,15 +928,16 @@ impl Solver<'_> {
             if self.state[f] != UND {
                 continue;
             }
-            let mut c = [0.0f64; 3];
+            let mut c = [0.0f64; MAX_CONSTRAINTS];
             let mut finite = true;
-            for (i, ci) in c.iter_mut().enumerate() {
-                let e = self.fe[f][i] as usize;
-                let me = (3 * f + i) as u32;
+            let r = self.slots(f);
+            for (ci, me) in c.iter_mut().zip(r.clone()) {
+                let e = self.fcon[me] as usize;
+                let me = me as u32;
                 let mut top = NEG;
                 for k in self.incidences(e) {
                     let x = self.inc[k];
-                    if x != me && self.state[(x / 3) as usize] == UND {
+                    if x != me && self.state[self.of(x)] == UND {
                         top = top.max(self.share[x as usize]);
                     }
                 }
@@ -806,7 +946,7 @@ impl Solver<'_> {
                 let (mut e1, mut e2) = (0.0f64, 0.0f64);
                 for k in self.incidences(e) {
                     let x = self.inc[k];
-                    if x != me && self.state[(x / 3) as usize] == UND {
+                    if x != me && self.state[self.of(x)] == UND {
                         let a = libm::exp((self.share[x as usize] - shift) / tau);
                         e2 += a * e1;
                         e1 += a;
@@ -845,12 +985,8 @@ impl Solver<'_> {
                 *ci = on - off;
             }
             if finite {
-                let w = self.w[f] as f64;
-                let t = (w + c[0] + c[1] + c[2]) / 3.0;
-                let b = 3 * f;
-                self.share[b] = t - c[0];
-                self.share[b + 1] = t - c[1];
-                self.share[b + 2] = w - self.share[b] - self.share[b + 1];
+                let new = split(self.w[f] as f64, &c[..r.len()]);
+                self.share[r.clone()].copy_from_slice(&new[..r.len()]);
             }
         }
     }
@@ -861,7 +997,7 @@ impl Solver<'_> {
             let f = f as usize;
             self.best[f] = match self.state[f] {
                 ON => true,
-                UND => self.picks[f] == 0b111,
+                UND => self.picks[f] != 0 && self.picks[f] == self.all_pick(f),
                 _ => false,
             };
         }
@@ -888,7 +1024,7 @@ impl Solver<'_> {
             let mut batch = false;
             for &f in facets {
                 let f = f as usize;
-                if self.state[f] == UND && self.picks[f] == 0b111 {
+                if self.state[f] == UND && self.picks[f] != 0 && self.agreed(f) {
                     self.assign(f, true);
                     batch = true;
                 }
@@ -951,11 +1087,11 @@ impl Solver<'_> {
                 let f = self.work[head] as usize;
                 head += 1;
                 value += self.w[f] as f64;
-                for e in self.fe[f] {
+                for &e in self.edges_of(f) {
                     let e = e as usize;
                     let mut deg = 0;
                     for k in self.incidences(e) {
-                        let g = (self.inc[k] / 3) as usize;
+                        let g = self.of(self.inc[k]);
                         if self.tmp[g] {
                             deg += 1;
                             if !self.seen[g] {
@@ -1003,7 +1139,7 @@ impl Solver<'_> {
             let f = f as usize;
             self.tmp[f] = match self.state[f] {
                 ON => true,
-                UND => self.picks[f].count_ones() >= 2,
+                UND => 2 * self.picks[f].count_ones() >= self.slots(f).len() as u32,
                 _ => false,
             };
         }
@@ -1011,7 +1147,7 @@ impl Solver<'_> {
             let e = e as usize;
             let mut d = 0;
             for k in self.incidences(e) {
-                d += self.tmp[(self.inc[k] / 3) as usize] as u32;
+                d += self.tmp[self.of(self.inc[k])] as u32;
             }
             self.deg[e] = d;
             self.eq.push(e);
@@ -1031,7 +1167,7 @@ impl Solver<'_> {
                 let mut worst = None;
                 let mut low = f32::INFINITY;
                 for k in self.incidences(e) {
-                    let f = (self.inc[k] / 3) as usize;
+                    let f = self.of(self.inc[k]);
                     if self.tmp[f] && self.w[f] <= low {
                         low = self.w[f];
                         worst = Some(f);
@@ -1039,7 +1175,7 @@ impl Solver<'_> {
                 }
                 let Some(f) = worst else { break };
                 self.tmp[f] = false;
-                for g in self.fe[f] {
+                for &g in self.edges_of(f) {
                     self.deg[g as usize] -= 1;
                     self.eq.push(g as usize);
                 }
@@ -1156,7 +1292,7 @@ impl Solver<'_> {
                     }
                     (true, true) => {}
                 }
-                if !matches!(self.picks[f], 0 | 0b111) {
+                if !self.agreed(f) {
                     disagree += 1;
                 }
                 let score = a.min(b);
@@ -1337,7 +1473,7 @@ impl Solver<'_> {
             self.open(facets, edges);
             for &f in facets {
                 let f = f as usize;
-                let agree = self.picks[f] == if self.best[f] { 0b111 } else { 0 };
+                let agree = self.picks[f] == if self.best[f] { self.all_pick(f) } else { 0 };
                 self.flags[f] = if agree { 0 } else { LNS_SEED };
             }
             self.close(facets, edges);
@@ -1356,7 +1492,7 @@ impl Solver<'_> {
                 while head < nf {
                     let f = ball.0[head] as usize;
                     head += 1;
-                    for e in self.fe[f] {
+                    for &e in self.edges_of(f) {
                         let e = e as usize;
                         if self.dirty[e] {
                             continue;
@@ -1365,7 +1501,7 @@ impl Solver<'_> {
                         ball.1[ne] = e as u32;
                         ne += 1;
                         for k in self.incidences(e) {
-                            let g = (self.inc[k] / 3) as usize;
+                            let g = self.of(self.inc[k]);
                             if nf < size && self.state[g] == UND && self.flags[g] & LNS_IN == 0 {
                                 self.flags[g] |= LNS_IN;
                                 ball.0[nf] = g as u32;
@@ -1393,7 +1529,7 @@ impl Solver<'_> {
                     let e = ball.1[i] as usize;
                     let mut d = 0;
                     for k in self.incidences(e) {
-                        let g = (self.inc[k] / 3) as usize;
+                        let g = self.of(self.inc[k]);
                         d += self.best[g] as u32;
                         if self.state[g] == UND && self.flags[g] & LNS_IN == 0 {
                             self.assign(g, self.best[g]);
@@ -1471,7 +1607,11 @@ pub fn try_select_in<'a>(
         let ne = input.edge_count;
         // Keep in step with `select_bytes`.
         let start = s.try_alloc_slice(ne + 1, 0u32)?;
-        let inc = s.try_alloc_slice(3 * nf, 0u32)?;
+        let ni = incidence_count(input.facet_edges);
+        let inc = s.try_alloc_slice(ni, 0u32)?;
+        let fstart = s.try_alloc_slice(nf + 1, 0u32)?;
+        let fcon = s.try_alloc_slice(ni, 0u32)?;
+        let owner = s.try_alloc_slice(ni, 0u32)?;
         let state = s.try_alloc_slice(nf, UND)?;
         let sel = s.try_alloc_slice(ne, 0u32)?;
         let und = s.try_alloc_slice(ne, 0u32)?;
@@ -1488,10 +1628,10 @@ pub fn try_select_in<'a>(
             len: 0,
         };
         let trail = s.try_alloc_slice(nf, 0u32)?;
-        let share = s.try_alloc_slice(3 * nf, 0.0f64)?;
+        let share = s.try_alloc_slice(ni, 0.0f64)?;
         let picks = s.try_alloc_slice(nf, 0u8)?;
-        let con = s.try_alloc_slice(3 * nf, 0.0f64)?;
-        let coff = s.try_alloc_slice(3 * nf, 0.0f64)?;
+        let con = s.try_alloc_slice(ni, 0.0f64)?;
+        let coff = s.try_alloc_slice(ni, 0.0f64)?;
         let top_id = s.try_alloc_slice(ne, [u32::MAX; 3])?;
         let top_v = s.try_alloc_slice(ne, [NEG; 3])?;
         let term = s.try_alloc_slice(ne, 0.0f64)?;
@@ -1519,31 +1659,39 @@ pub fn try_select_in<'a>(
             len: 0,
         };
 
-        // Edge -> facet incidence (CSR), facets ascending within each edge.
-        for edges in input.facet_edges {
-            for &e in edges {
+        // Facet -> edge incidence (CSR of the used slots, in slot order), with an
+        // even split of each score over the facet's edges.
+        let mut x = 0usize;
+        for (f, row) in input.facet_edges.iter().enumerate() {
+            fstart[f] = x as u32;
+            for &e in row.iter().filter(|&&e| e != UNUSED) {
+                fcon[x] = e;
+                owner[x] = f as u32;
                 start[e as usize + 1] += 1;
+                x += 1;
             }
+            let k = x - fstart[f] as usize;
+            let w = input.scores[f] as f64;
+            share[fstart[f] as usize..x].fill(w / k as f64);
+            share[x - 1] = w - (k - 1) as f64 * (w / k as f64);
         }
+        fstart[nf] = x as u32;
+        // Edge -> facet incidence (CSR), facets ascending within each edge.
         for e in 0..ne {
             start[e + 1] += start[e];
             und[e] = start[e + 1] - start[e];
         }
-        for (f, edges) in input.facet_edges.iter().enumerate() {
-            for (i, &e) in edges.iter().enumerate() {
-                let e = e as usize;
-                inc[(start[e] + sel[e]) as usize] = (3 * f + i) as u32;
-                sel[e] += 1;
-            }
-            let w = input.scores[f] as f64;
-            share[3 * f] = w / 3.0;
-            share[3 * f + 1] = w / 3.0;
-            share[3 * f + 2] = w - 2.0 * (w / 3.0);
+        for (x, &e) in fcon.iter().enumerate() {
+            let e = e as usize;
+            inc[(start[e] + sel[e]) as usize] = x as u32;
+            sel[e] += 1;
         }
         sel.fill(0);
 
         let mut sv = Solver {
-            fe: input.facet_edges,
+            fstart,
+            fcon,
+            owner,
             w: input.scores,
             masks: input.edge_mask,
             pens: input.edge_penalty,
@@ -1609,7 +1757,7 @@ pub fn try_select_in<'a>(
             while head < fl {
                 let f = comp_f[head] as usize;
                 head += 1;
-                for e in input.facet_edges[f] {
+                for &e in sv.edges_of(f) {
                     let e = e as usize;
                     if sv.dirty[e] {
                         continue;
@@ -1618,7 +1766,7 @@ pub fn try_select_in<'a>(
                     comp_e[el] = e as u32;
                     el += 1;
                     for k in sv.incidences(e) {
-                        let g = (sv.inc[k] / 3) as usize;
+                        let g = sv.of(sv.inc[k]);
                         if sv.state[g] == UND && !sv.seen[g] {
                             sv.seen[g] = true;
                             comp_f[fl] = g as u32;
@@ -1722,7 +1870,7 @@ mod tests {
 
     /// Facets given by vertex triples; edges numbered in order of appearance.
     struct Mesh {
-        facets: Vec<[u32; 3]>,
+        facets: Vec<[u32; MAX_CONSTRAINTS]>,
         edges: Vec<(u32, u32)>,
     }
 
@@ -1743,7 +1891,7 @@ mod tests {
                 };
                 f[i] = id as u32;
             }
-            facets.push(f);
+            facets.push(widen(f));
         }
         Mesh { facets, edges }
     }
@@ -1752,7 +1900,7 @@ mod tests {
         let mut deg = vec![0u32; input.edge_count];
         for (f, e) in input.facet_edges.iter().enumerate() {
             if sel[f] {
-                for &e in e {
+                for &e in e.iter().filter(|&&e| e != UNUSED) {
                     deg[e as usize] += 1;
                 }
             }
@@ -1798,7 +1946,8 @@ mod tests {
     }
 
     fn run(input: &SelectInput<'_>) -> (Vec<bool>, SelectStats) {
-        let n = select_bytes(input.facet_edges.len(), input.edge_count);
+        let n = select_bytes_for(input);
+        assert!(n <= select_bytes(input.facet_edges.len(), input.edge_count));
         let mut buf = vec![MaybeUninit::<u8>::uninit(); n];
         let arena = Arena::new(&mut buf);
         let (sel, stats) = try_select_in(&arena, input, &mut |_, _| true).unwrap();
@@ -1869,6 +2018,100 @@ mod tests {
         assert_eq!(&sel[4..], &[false; 4]);
         assert!(st.optimal && (st.objective - 4.0).abs() < 1e-6);
         assert_eq!(st.components, 1);
+    }
+
+    /// Convex quad 0123 (in that order), all four triangles: 012 and 023 (diagonal
+    /// 02), 013 and 123 (diagonal 13); with `apexes`, also the octahedron's eight
+    /// faces over apex 4 above and apex 5 below. Returns the mesh and its
+    /// geometric fold groups: at each quad edge, the two quad triangles on it lie
+    /// on the same side (the quad's inside), so they form a group; on a diagonal
+    /// they lie on opposite sides, and the apex faces stand 90 degrees apart.
+    fn flat_quad(apexes: bool) -> (Mesh, Vec<Vec<usize>>) {
+        let mut tris = vec![[0, 1, 2], [0, 2, 3], [0, 1, 3], [1, 2, 3]];
+        if apexes {
+            for (a, b) in [(0, 1), (1, 2), (2, 3), (3, 0)] {
+                tris.push([a, b, 4]);
+                tris.push([a, b, 5]);
+            }
+        }
+        let m = mesh(&tris);
+        let quad_tris: Vec<usize> = (0..4).collect();
+        let groups = [(0, 1), (1, 2), (2, 3), (0, 3)]
+            .iter()
+            .map(|&(a, b)| {
+                quad_tris
+                    .iter()
+                    .copied()
+                    .filter(|&f| tris[f].contains(&a) && tris[f].contains(&b))
+                    .collect::<Vec<usize>>()
+            })
+            .collect();
+        (m, groups)
+    }
+
+    /// The rows of `m` plus the groups as constraints `edges..`, with their masks.
+    fn with_groups(m: &Mesh, groups: &[Vec<usize>]) -> (Vec<[u32; MAX_CONSTRAINTS]>, Vec<u8>) {
+        let mut rows = m.facets.clone();
+        let mut mask = vec![MASK_CLOSED; m.edges.len()];
+        for g in groups {
+            for &f in g {
+                add_to(&mut rows, f, mask.len() as u32);
+            }
+            mask.push(MASK_AT_MOST_ONE);
+        }
+        (rows, mask)
+    }
+
+    #[test]
+    fn fold_groups_forbid_the_flat_tetrahedron_of_a_quads_two_triangulations() {
+        let (m, groups) = flat_quad(false);
+        assert!(groups.iter().all(|g| g.len() == 2));
+        let w = vec![1.0f32; 4];
+        // Edges only: both triangulations close a flat tetrahedron, worth 4.
+        let input = SelectInput::new(&m.facets, &w, m.edges.len());
+        let (sel, st) = run(&input);
+        assert_eq!(sel, [true; 4]);
+        assert!(st.optimal && (st.objective - 4.0).abs() < 1e-9);
+        // With the fold groups a quad alone cannot close: nothing.
+        let (rows, mask) = with_groups(&m, &groups);
+        let input = SelectInput {
+            edge_mask: Some(&mask),
+            ..SelectInput::new(&rows, &w, mask.len())
+        };
+        let (sel, st) = run(&input);
+        assert_eq!(sel, [false; 4]);
+        assert!(st.optimal && st.objective == 0.0);
+        assert_eq!(brute(&input), 0.0);
+    }
+
+    #[test]
+    fn fold_groups_in_an_octahedron_leave_one_triangulation_under_a_pyramid() {
+        let (m, groups) = flat_quad(true);
+        // Quad triangles worth more than the octahedron's faces: without groups
+        // the flat tetrahedron (4 x 2.5) beats the octahedron (8) and a pyramid
+        // closed by one triangulation (4 + 2 x 2.5).
+        let mut w = vec![2.5f32; 4];
+        w.extend((0..8).map(|i| if i % 2 == 0 { 1.0 } else { 0.9 }));
+        let input = SelectInput::new(&m.facets, &w, m.edges.len());
+        let (sel, st) = run(&input);
+        assert_eq!(&sel[..4], &[true; 4]);
+        assert!(st.optimal && (st.objective - 10.0).abs() < 1e-5);
+        let (rows, mask) = with_groups(&m, &groups);
+        let input = SelectInput {
+            edge_mask: Some(&mask),
+            ..SelectInput::new(&rows, &w, mask.len())
+        };
+        let (sel, st) = run(&input);
+        assert!(
+            st.optimal && (st.objective - 9.0).abs() < 1e-5,
+            "{}",
+            st.objective
+        );
+        assert!((brute(&input) - 9.0).abs() < 1e-5);
+        // The upper pyramid (even faces, worth 1.0) and one triangulation.
+        assert_eq!(sel.iter().filter(|&&s| s).count(), 6);
+        assert!(sel[..4] == [true, true, false, false] || sel[..4] == [false, false, true, true]);
+        assert!((4..12).all(|f| sel[f] == (f % 2 == 0)));
     }
 
     #[test]
@@ -1952,10 +2195,24 @@ mod tests {
     }
 
     /// Facet edges, scores, edge count, masks, penalties.
-    type Random = (Vec<[u32; 3]>, Vec<f32>, usize, Vec<u8>, Vec<f32>);
+    type Random = (
+        Vec<[u32; MAX_CONSTRAINTS]>,
+        Vec<f32>,
+        usize,
+        Vec<u8>,
+        Vec<f32>,
+    );
 
-    /// Deterministic pseudo-random instances: triangles of a random graph.
-    fn random_instance(seed: u64, verts: u32, p: u32, border: bool) -> Random {
+    /// Put facet `f` into constraint `id` (its first unused slot).
+    fn add_to(rows: &mut [[u32; MAX_CONSTRAINTS]], f: usize, id: u32) {
+        let slot = rows[f].iter().position(|&e| e == UNUSED).unwrap();
+        rows[f][slot] = id;
+    }
+
+    /// Deterministic pseudo-random instances: triangles of a random graph; with
+    /// `groups`, the facets on each edge are also shuffled into runs, and runs of
+    /// two or more become at-most-one groups (random penalty or none).
+    fn random_instance(seed: u64, verts: u32, p: u32, border: bool, groups: bool) -> Random {
         let mut s = seed
             .wrapping_mul(6364136223846793005)
             .wrapping_add(1442695040888963407);
@@ -1998,17 +2255,45 @@ mod tests {
                 }
             })
             .collect();
-        let pens: Vec<f32> = (0..m.edges.len())
+        let mut pens: Vec<f32> = (0..m.edges.len())
             .map(|_| (next() % 100) as f32 / 200.0)
             .collect();
-        (m.facets, w, m.edges.len(), mask, pens)
+        let (mut rows, mut mask, mut ne) = (m.facets, mask, m.edges.len());
+        if groups {
+            for e in 0..m.edges.len() as u32 {
+                let mut on: Vec<usize> = (0..rows.len())
+                    .filter(|&f| rows[f][..3].contains(&e))
+                    .collect();
+                for i in (1..on.len()).rev() {
+                    on.swap(i, next() as usize % (i + 1));
+                }
+                let mut rest = &on[..];
+                while !rest.is_empty() {
+                    let n = (1 + next() as usize % 3).min(rest.len());
+                    if n >= 2 {
+                        for &f in &rest[..n] {
+                            add_to(&mut rows, f, ne as u32);
+                        }
+                        mask.push(MASK_AT_MOST_ONE);
+                        pens.push(if next() % 2 == 0 {
+                            0.0
+                        } else {
+                            (next() % 100) as f32 / 400.0
+                        });
+                        ne += 1;
+                    }
+                    rest = &rest[n..];
+                }
+            }
+        }
+        (rows, w, ne, mask, pens)
     }
 
     #[test]
     fn matches_brute_force_on_small_random_instances() {
         for seed in 0..300u64 {
             let (fe, w, ne, mask, pens) =
-                random_instance(seed, 7 + (seed % 4) as u32, 60, seed % 2 == 1);
+                random_instance(seed, 7 + (seed % 4) as u32, 60, seed % 2 == 1, false);
             let input = SelectInput {
                 edge_mask: Some(&mask),
                 edge_penalty: Some(&pens),
@@ -2026,9 +2311,33 @@ mod tests {
     }
 
     #[test]
+    fn matches_brute_force_with_random_at_most_one_groups() {
+        let mut grouped = 0;
+        for seed in 0..300u64 {
+            let (fe, w, ne, mask, pens) =
+                random_instance(seed, 7 + (seed % 4) as u32, 60, seed % 2 == 1, true);
+            grouped += (mask.contains(&MASK_AT_MOST_ONE)) as u32;
+            let input = SelectInput {
+                edge_mask: Some(&mask),
+                edge_penalty: Some(&pens),
+                ..SelectInput::new(&fe, &w, ne)
+            };
+            let (_, st) = run(&input);
+            let exact = brute(&input);
+            assert!(st.optimal, "seed {seed}");
+            assert!(
+                (st.objective - exact).abs() < 1e-5,
+                "seed {seed}: {} vs {exact}",
+                st.objective
+            );
+        }
+        assert!(grouped >= 200, "only {grouped} instances have a group");
+    }
+
+    #[test]
     fn node_limits_still_give_feasible_selections_with_honest_bounds() {
-        for seed in 0..60u64 {
-            let (fe, w, ne, mask, pens) = random_instance(seed, 9, 70, seed % 2 == 1);
+        for seed in 0..120u64 {
+            let (fe, w, ne, mask, pens) = random_instance(seed, 9, 70, seed % 2 == 1, seed >= 60);
             let exact = {
                 let input = SelectInput {
                     edge_mask: Some(&mask),
@@ -2108,12 +2417,40 @@ mod tests {
 
     #[test]
     fn hostile_inputs_are_errors_not_panics() {
-        let fe = [[0u32, 1, 2]];
+        let fe = [widen([0u32, 1, 2])];
         let w = [1.0f32];
         let is_bad = |e: Error| matches!(e, Error::BadParameter { .. });
         assert!(is_bad(err(&SelectInput::new(&fe, &w, 2))));
-        assert!(is_bad(err(&SelectInput::new(&[[0, 1, 1]], &w, 3))));
-        assert!(is_bad(err(&SelectInput::new(&[[u32::MAX, 1, 2]], &w, 3))));
+        assert!(is_bad(err(&SelectInput::new(&[widen([0, 1, 1])], &w, 3))));
+        assert!(is_bad(err(&SelectInput::new(
+            &[widen([u32::MAX, 1, 2])],
+            &w,
+            3
+        ))));
+        // Groups: out of range, repeated, or too few slots used.
+        assert!(is_bad(err(&SelectInput::new(
+            &[join([0, 1, 2], [0, 9, UNUSED], 3)],
+            &w,
+            4
+        ))));
+        assert!(is_bad(err(&SelectInput::new(
+            &[[0, 1, 2, 3, UNUSED, 1]],
+            &w,
+            4
+        ))));
+        assert!(is_bad(err(&SelectInput::new(
+            &[[UNUSED, 1, UNUSED, 3, UNUSED, UNUSED]],
+            &w,
+            4
+        ))));
+        assert!(is_bad(err(&SelectInput::new(
+            &[join([0, 1, 2], [0, 0, 0], UNUSED - 1)],
+            &w,
+            4
+        ))));
+        // Slots may be used in any order.
+        let (sel, st) = run(&SelectInput::new(&[[UNUSED, 2, 3, UNUSED, 0, 1]], &w, 4));
+        assert!(sel == [false] && st.optimal);
         assert!(is_bad(err(&SelectInput::new(&fe, &[f32::NAN], 3))));
         assert!(is_bad(err(&SelectInput::new(&fe, &[f32::INFINITY], 3))));
         assert!(is_bad(err(&SelectInput::new(&fe, &[], 3))));
@@ -2147,7 +2484,7 @@ mod tests {
     fn a_small_arena_is_exhausted_not_a_panic() {
         let (m, w) = tetra_and_tent();
         let input = SelectInput::new(&m.facets, &w, m.edges.len());
-        let need = select_bytes(m.facets.len(), m.edges.len());
+        let need = select_bytes_for(&input);
         for n in [0, 7, need / 2, need / 4 * 3] {
             let mut buf = vec![MaybeUninit::<u8>::uninit(); n];
             let arena = Arena::new(&mut buf);

@@ -197,7 +197,7 @@ impl Report<'_> {
         format!(
             "input      {}: {n} points, {normals}, bounding-box diagonal {diag:.6}\n\
              clusters   {} ({} initial, +{} by splitting, +{} by refinement in {} rounds), max error {:.3}% of the diagonal\n\
-             candidates {} edges, {} facets ({} degenerate, {} folding onto better ones, {} generators merged), {:.1} supports per facet\n\
+             candidates {} edges, {} facets ({} degenerate, {} fold groups, {} generators merged), {:.1} supports per facet\n\
              selection  {solver}, {} independent parts (largest {} facets), {} facets fixed by propagation\n\
              mesh       {} vertices, {} faces, {} components, {closed}\n\
              time       {}, total {:.1} ms\n\
@@ -213,7 +213,7 @@ impl Report<'_> {
             m.candidate_edges,
             m.candidate_facets,
             m.degenerate_facets,
-            m.folded_facets,
+            m.fold_groups,
             m.merged_generators,
             m.mean_supports,
             sel.components,
@@ -261,7 +261,7 @@ impl Report<'_> {
             .num("candidate_edges", m.candidate_edges as f64)
             .num("candidate_facets", m.candidate_facets as f64)
             .num("degenerate_facets", m.degenerate_facets as f64)
-            .num("folded_facets", m.folded_facets as f64)
+            .num("fold_groups", m.fold_groups as f64)
             .num("merged_generators", m.merged_generators as f64)
             .bool("solver_optimal", sel.optimal)
             .num("solver_gap", sel.gap)
