@@ -563,10 +563,7 @@ fn bnb_matches_the_mip_on_random_small_instances() {
 #[test]
 fn bnb_matches_the_mip_on_sphere_candidates() {
     let mut rng = Rng(0x5fe5e);
-    // (points, neighbours, surface, also with fold groups). With groups, the open
-    // 150/8 and the all-border cases are not proved within a minute: the bound
-    // does not yet see that two facets of one group cannot partner on their edge
-    // (see `sphere_benchmark`, FOLD=1).
+    // (points, neighbours, surface, also with fold groups).
     let cases = [
         (60, 6, Surface::Closed, true),
         (150, 6, Surface::Closed, true),
@@ -574,8 +571,8 @@ fn bnb_matches_the_mip_on_sphere_candidates() {
         (150, 7, Surface::Closed, true),
         (100, 8, Surface::Closed, true),
         (120, 7, Surface::Open, true),
-        (150, 8, Surface::Open, false),
-        (60, 6, Surface::AllBorder, false),
+        (150, 8, Surface::Open, true),
+        (60, 6, Surface::AllBorder, true),
     ];
     for (i, &(n, k, surface, fold)) in cases.iter().enumerate() {
         let (plain, groups) = sphere_instance(&mut rng, n, k, surface);
@@ -621,7 +618,8 @@ fn bnb_matches_the_mip_on_sphere_candidates() {
 /// A table of 24 sphere instances per surface kind, B&B only (no MIP): how many
 /// nodes and how long. `cargo test -p arena-tests --test select_oracle -- --ignored --nocapture`
 /// (`SURFACE=open|border` for the other kinds, `LIMIT=n` for the node limit,
-/// `FOLD=1` to add the fold groups).
+/// `FOLD=1` to add the fold groups; `N=800 K=10` for instances of about the real
+/// size, one component of thousands of facets, `CASES=n` for fewer of them).
 #[test]
 #[ignore]
 fn sphere_benchmark() {
@@ -634,11 +632,18 @@ fn sphere_benchmark() {
         _ => Surface::Closed,
     };
     let fold = std::env::var("FOLD").is_ok_and(|v| v == "1");
+    let var = |name: &str| {
+        std::env::var(name)
+            .ok()
+            .map(|v| v.parse::<usize>().unwrap())
+    };
+    let (big_n, big_k) = (var("N"), var("K"));
+    let cases = var("CASES").unwrap_or(24);
     let mut rng = Rng(0xabcdef);
     let (mut total, mut unsolved) = (0.0, 0);
-    for case in 0..24 {
-        let n = [60, 100, 150][case % 3];
-        let k = [6, 7, 8][(case / 3) % 3];
+    for case in 0..cases {
+        let n = big_n.unwrap_or([60, 100, 150][case % 3]);
+        let k = big_k.unwrap_or([6, 7, 8][(case / 3) % 3]);
         let (plain, groups) = sphere_instance(&mut rng, n, k, surface);
         let inst = if fold {
             plain.with_groups(&groups)
@@ -651,10 +656,11 @@ fn sphere_benchmark() {
         total += ms;
         unsolved += !st.optimal as u32;
         eprintln!(
-            "case {case:2}: n {n:3} k {k} F {:4}: objective {:8.3} bound {:8.3} optimal {:5} nodes {:6} components {:2} largest {:4} {:6.0} ms",
+            "case {case:2}: n {n:3} k {k} F {:4}: objective {:8.3} bound {:8.3} gap {:6.3} optimal {:5} nodes {:6} components {:2} largest {:4} {:6.0} ms",
             inst.facets.len(),
             st.objective,
             st.upper_bound,
+            st.gap,
             st.optimal,
             st.nodes,
             st.components,

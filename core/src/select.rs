@@ -27,7 +27,9 @@
 //! and at most one facet of a group may be selected: `Σ_{f ∈ G} b_f ≤ 1`. A group
 //! is just one more constraint ("edge" below) with mask `{0, 1}`
 //! ([`MASK_AT_MOST_ONE`]) and no penalty; a facet then has 3 to 6 constraints, and
-//! everything below treats edges and groups alike, by their masks.
+//! everything below treats edges and groups alike, by their masks, except that on
+//! each edge the facets fall into *classes*: a facet's group holding the most
+//! facets of that edge, or the facet alone.
 //!
 //! ## How (deterministic; ties go to the lower index)
 //! 1. *Propagation* to a fixpoint, at the root and at every node: an edge with `s`
@@ -40,8 +42,10 @@
 //!    that share no edge; each is solved on its own, smallest first.
 //! 3. *Bound* (admissible, Lagrangian decomposition): every undecided facet splits
 //!    its score into shares `λ_{f,e}` over its 3 to 6 edges (`Σ_e λ_{f,e} = w_f`).
-//!    Alone, an edge can take any `k` of its undecided facets with `s + k ∈ A_e`;
-//!    its best is `max_k (top-k shares) − pen_e [s + k = 1]`. Summing that over the
+//!    Alone, an edge can take any `k` of its undecided facets with `s + k ∈ A_e`,
+//!    at most one per class (a group allows no more); its best is
+//!    `max_k (top-k shares of distinct classes) − pen_e [s + k = 1]`, so a pair is
+//!    the best share plus the best of another class. Summing that over the
 //!    edges, plus the selected facets' scores, bounds every completion for *every*
 //!    split, since each facet's score is counted once through its shares. The best
 //!    split gives the LP relaxation with each edge's convex hull (which includes
@@ -49,7 +53,8 @@
 //!    by coordinate descent (one facet at a time, re-split so that its edges
 //!    value it equally: the exact minimiser for that facet), on a smoothed dual with
 //!    a falling temperature at the root, then locally, only where something changed,
-//!    at every node. Each edge caches its three best shares and its term, so a node
+//!    at every node. Each edge caches the best shares of its three best classes
+//!    (and the second best of the first two) and its term, so a node
 //!    costs work in proportion to what changed, plus one pass over the component.
 //!    When the edges of every facet agree, their picks are a feasible
 //!    completion worth exactly the bound: an incumbent for free.
@@ -75,7 +80,7 @@
 //! its component (rounding room for the floating-point bound).
 //!
 //! ## Cost
-//! Memory: [`select_bytes_for`], about `65 F + 36 I + 90 E` bytes for `I` used
+//! Memory: [`select_bytes_for`], about `65 F + 40 I + 106 E` bytes for `I` used
 //! constraint slots (3 F to 6 F; [`select_bytes`] assumes 6 F), all from the arena,
 //! of which only the `F`-byte result is persistent. Time: O(F + E) for the checks,
 //! incidence, propagation and components; O(incidences) per root sweep (150 per
@@ -87,11 +92,11 @@
 //! node costs 0.5-1 ms in a component of about 1000 facets. With *every* edge a
 //! possible (penalised) border, a few such instances are not proved within 200 000
 //! nodes: the LP gap is larger there. With geometric fold groups added, the
-//! closed instances take 20-200 nodes and 0.04-1 s (a node costs 2-5 ms), but
-//! open-rim and all-border ones often are not proved within 3000 nodes: the bound
-//! treats a group and its edge separately, so it does not see that two facets of
-//! one group cannot partner on that edge (the LP gap stays near the group-free
-//! one). The search is exponential in the worst case; the node limit caps it.
+//! class-aware edge terms make the bound tight: all 24 closed and all 24 open-rim
+//! benchmark instances are proved in 20-500 nodes and 0.02-0.5 s. At about the
+//! real size (800 points, 10 neighbours, one component of 9000 facets) 200 nodes
+//! leave a gap near 90%: the incumbent heuristics find little there. The search
+//! is exponential in the worst case; the node limit caps it.
 
 use core::mem::{align_of, size_of};
 
@@ -247,14 +252,14 @@ fn arr<T>(count: usize) -> usize {
 
 /// An upper bound on the arena bytes [`try_select_in`] uses for `facets` facets
 /// and `edges` constraints (edges and fold groups), whatever their rows hold
-/// (persistent result plus peak scratch): about `280 F + 90 E` bytes. See
+/// (persistent result plus peak scratch): about `305 F + 106 E` bytes. See
 /// [`select_bytes_for`] for a tighter figure.
 pub fn select_bytes(facets: usize, edges: usize) -> usize {
     bytes(facets, edges, facets.saturating_mul(MAX_CONSTRAINTS))
 }
 
 /// The arena bytes [`try_select_in`] uses for `input` at most: about
-/// `65 F + 36 I + 90 E` bytes for `I` used constraint slots (`173 F + 90 E` with
+/// `65 F + 40 I + 106 E` bytes for `I` used constraint slots (`185 F + 106 E` with
 /// edges only). Cost O(F).
 pub fn select_bytes_for(input: &SelectInput<'_>) -> usize {
     bytes(
@@ -281,6 +286,7 @@ fn bytes(f: usize, e: usize, ni: usize) -> usize {
         arr::<u32>(f.saturating_add(1)), // fstart
         arr::<u32>(ni),                  // fcon
         arr::<u32>(ni),                  // owner
+        arr::<u32>(ni),                  // cls
         arr::<u8>(f),                    // state
         arr::<u32>(e),                   // sel
         arr::<u32>(e),                   // und
@@ -294,7 +300,7 @@ fn bytes(f: usize, e: usize, ni: usize) -> usize {
         arr::<f64>(ni),                  // con
         arr::<f64>(ni),                  // coff
         arr::<[u32; 3]>(e),              // top_id
-        arr::<[f64; 3]>(e),              // top_v
+        arr::<[f64; 5]>(e),              // top_v
         arr::<f64>(e),                   // term
         arr::<bool>(e),                  // in_e
         arr::<bool>(f),                  // in_f
@@ -415,14 +421,28 @@ fn edge_term(s: u32, u: u32, mask: u8, pen: f64, a1: f64, a2: f64) -> (f64, usiz
     (best, kb)
 }
 
-/// The two best of an edge's three cached best shares once incidence `x` is left out.
-fn others(id: &[u32; 3], v: &[f64; 3], x: u32) -> (f64, f64) {
+/// From an edge's cache (the best shares `v[0..3]` of its three best classes, at
+/// incidences `id`, and the second best `v[3]`, `v[4]` of the first two classes):
+/// once incidence `x` is left out, the best two shares of distinct classes, and
+/// the best share of a class other than `x`'s (`same_as_top`: `x` is in the class
+/// of `id[0]`).
+fn others(id: &[u32; 3], v: &[f64; 5], x: u32, same_as_top: bool) -> (f64, f64, f64) {
     if x == id[0] {
-        (v[1], v[2])
+        // v[3], v[1], v[2] come from three distinct classes.
+        let (a, b, c) = (v[3], v[1], v[2]);
+        let hi = a.max(b).max(c);
+        let mid = if hi == a {
+            b.max(c)
+        } else if hi == b {
+            a.max(c)
+        } else {
+            a.max(b)
+        };
+        (hi, mid, v[1])
     } else if x == id[1] {
-        (v[0], v[2])
+        (v[0], v[4].max(v[2]), v[0])
     } else {
-        (v[0], v[1])
+        (v[0], v[1], if same_as_top { v[1] } else { v[0] })
     }
 }
 
@@ -520,9 +540,15 @@ struct Solver<'a> {
     w: &'a [f32],
     masks: Option<&'a [u8]>,
     pens: Option<&'a [f32]>,
-    /// CSR: the incidences of edge e are `inc[start[e]..start[e + 1]]`, facets ascending.
+    /// CSR: the incidences of edge e are `inc[start[e]..start[e + 1]]`, grouped by
+    /// class (see `cls`): classes by id, then the singletons; facets ascending within.
     start: &'a [u32],
     inc: &'a [u32],
+    /// The *class* of each incidence on its edge: an at-most-one constraint
+    /// (a fold group) of the facet that holds other facets of that edge, or
+    /// [`UNUSED`] (a class of its own). A selection takes at most one facet per
+    /// class, so an edge's term takes two shares from distinct classes only.
+    cls: &'a [u32],
     state: &'a mut [u8],
     sel: &'a mut [u32],
     und: &'a mut [u32],
@@ -538,7 +564,8 @@ struct Solver<'a> {
     con: &'a mut [f64],
     coff: &'a mut [f64],
     top_id: &'a mut [[u32; 3]],
-    top_v: &'a mut [[f64; 3]],
+    /// Best shares of the three best classes, then the second best of the first two.
+    top_v: &'a mut [[f64; 5]],
     term: &'a mut [f64],
     in_e: &'a mut [bool],
     in_f: &'a mut [bool],
@@ -700,31 +727,61 @@ impl<'a> Solver<'a> {
         true
     }
 
-    /// Recompute edge `e`'s best shares and term from the state and shares.
+    /// Whether incidences `a` and `b` of one edge are in the same class.
+    fn same(&self, a: u32, b: u32) -> bool {
+        a == b || (self.cls[a as usize] == self.cls[b as usize] && self.cls[a as usize] != UNUSED)
+    }
+
+    /// Recompute edge `e`'s best shares per class and term from the state and
+    /// shares. One pass: the incidences of a class are consecutive.
     fn refresh_top(&mut self, e: usize) {
         let (s, u, m, p) = (self.sel[e], self.und[e], self.mask(e), self.pen(e));
+        // Class bests and their classes' second bests.
         let mut v = [NEG; 3];
+        let mut v2 = [NEG; 3];
         let mut id = [u32::MAX; 3];
-        for k in self.incidences(e) {
-            let x = self.inc[k];
-            if self.state[self.of(x)] != UND {
+        let r = self.incidences(e);
+        let mut k = r.start;
+        while k < r.end {
+            // One class: incidences k..j.
+            let first = self.inc[k];
+            let mut j = k;
+            let (mut b1, mut b2, mut bx) = (NEG, NEG, u32::MAX);
+            while j < r.end && self.same(first, self.inc[j]) {
+                let x = self.inc[j];
+                j += 1;
+                if self.state[self.of(x)] != UND {
+                    continue;
+                }
+                let sv = self.share[x as usize];
+                if sv > b1 {
+                    (b1, b2, bx) = (sv, b1, x);
+                } else if sv > b2 {
+                    b2 = sv;
+                }
+            }
+            k = j;
+            if bx == u32::MAX {
                 continue;
             }
-            let sv = self.share[x as usize];
-            if sv > v[0] {
-                v = [sv, v[0], v[1]];
-                id = [x, id[0], id[1]];
-            } else if sv > v[1] {
-                v = [v[0], sv, v[1]];
-                id = [id[0], x, id[1]];
-            } else if sv > v[2] {
-                v[2] = sv;
-                id[2] = x;
+            if b1 > v[0] {
+                (v, v2, id) = ([b1, v[0], v[1]], [b2, v2[0], v2[1]], [bx, id[0], id[1]]);
+            } else if b1 > v[1] {
+                (v, v2, id) = ([v[0], b1, v[1]], [v2[0], b2, v2[1]], [id[0], bx, id[1]]);
+            } else if b1 > v[2] {
+                (v[2], v2[2], id[2]) = (b1, b2, bx);
             }
         }
         self.term[e] = edge_term(s, u, m, p, v[0], v[1]).0;
         self.top_id[e] = id;
-        self.top_v[e] = v;
+        self.top_v[e] = [v[0], v[1], v[2], v2[0], v2[1]];
+    }
+
+    /// [`others`] for incidence `x` of edge `e`.
+    fn others_of(&self, e: usize, x: u32) -> (f64, f64, f64) {
+        let id = &self.top_id[e];
+        let top = id[0] != u32::MAX && self.same(x, id[0]);
+        others(id, &self.top_v[e], x, top)
     }
 
     /// From edge `e`'s fresh best shares: for each undecided facet on it, whether
@@ -739,11 +796,14 @@ impl<'a> Solver<'a> {
             let f = self.of(x);
             let bit = 1u8 << (x - self.fstart[f]);
             if self.state[f] == UND {
-                let (o1, o2) = others(&id, &v, x);
+                let (o1, o2, b) = self.others_of(e, x);
                 let off = edge_term(s, u - 1, m, p, o1, o2).0;
-                let on = self.share[xi] + edge_term(s + 1, u - 1, m, p, o1, o2).0;
-                self.con[xi] = term - on;
-                self.coff[xi] = term - off;
+                let on = self.share[xi] + edge_term(s + 1, u - 1, m, p, b, NEG).0;
+                // An edge that no completion satisfies (two classes short) makes
+                // the bound −∞; its marginals are moot.
+                let finite = term.is_finite();
+                self.con[xi] = if finite { term - on } else { 0.0 };
+                self.coff[xi] = if finite { term - off } else { 0.0 };
                 if id[..take].contains(&x) {
                     self.picks[f] |= bit;
                 } else {
@@ -859,8 +919,8 @@ impl<'a> Solver<'a> {
         for (ci, x) in c.iter_mut().zip(r) {
             let e = self.fcon[x] as usize;
             let (s, u, m, p) = (self.sel[e], self.und[e], self.mask(e), self.pen(e));
-            let (o1, o2) = others(&self.top_id[e], &self.top_v[e], x as u32);
-            let on = edge_term(s + 1, u - 1, m, p, o1, o2).0;
+            let (o1, o2, b) = self.others_of(e, x as u32);
+            let on = edge_term(s + 1, u - 1, m, p, b, NEG).0;
             let off = edge_term(s, u - 1, m, p, o1, o2).0;
             if !(on.is_finite() && off.is_finite()) {
                 return;
@@ -942,20 +1002,36 @@ impl<'a> Solver<'a> {
                     }
                 }
                 let shift = if top.is_finite() { top } else { 0.0 };
-                // Elementary symmetric sums of exp((λ − shift) / tau) over the others.
-                let (mut e1, mut e2) = (0.0f64, 0.0f64);
+                // Elementary symmetric sums of exp((λ − shift) / tau) over the
+                // others, pairs from distinct classes only (a class's sum joins
+                // at its end); `e1_on` leaves out the class of `me`.
+                let (mut e1, mut e2, mut e1_on) = (0.0f64, 0.0f64, 0.0f64);
+                let (mut run, mut prev) = (0.0f64, u32::MAX);
                 for k in self.incidences(e) {
                     let x = self.inc[k];
+                    if prev != u32::MAX && !self.same(prev, x) {
+                        e2 += run * e1;
+                        e1 += run;
+                        if !self.same(prev, me) {
+                            e1_on += run;
+                        }
+                        run = 0.0;
+                    }
+                    prev = x;
                     if x != me && self.state[self.of(x)] == UND {
-                        let a = libm::exp((self.share[x as usize] - shift) / tau);
-                        e2 += a * e1;
-                        e1 += a;
+                        run += libm::exp((self.share[x as usize] - shift) / tau);
+                    }
+                }
+                if prev != u32::MAX {
+                    e2 += run * e1;
+                    e1 += run;
+                    if !self.same(prev, me) {
+                        e1_on += run;
                     }
                 }
                 let (s, u, m, p) = (self.sel[e], self.und[e], self.mask(e), self.pen(e));
-                let esum = [1.0, e1, e2];
                 // tau · log Σ_k e_k exp((k shift − pen [d = 1]) / tau), d = base + k.
-                let soft = |base: u32, spare: u32| -> f64 {
+                let soft = |base: u32, spare: u32, esum: [f64; 3]| -> f64 {
                     let mut terms = [NEG; 3];
                     let mut hi = NEG;
                     let mut d = base;
@@ -979,8 +1055,8 @@ impl<'a> Solver<'a> {
                         .sum();
                     tau * (hi + libm::log(z))
                 };
-                let on = soft(s + 1, u - 1);
-                let off = soft(s, u - 1);
+                let on = soft(s + 1, u - 1, [1.0, e1_on, 0.0]);
+                let off = soft(s, u - 1, [1.0, e1, e2]);
                 finite &= on.is_finite() && off.is_finite();
                 *ci = on - off;
             }
@@ -1612,6 +1688,7 @@ pub fn try_select_in<'a>(
         let fstart = s.try_alloc_slice(nf + 1, 0u32)?;
         let fcon = s.try_alloc_slice(ni, 0u32)?;
         let owner = s.try_alloc_slice(ni, 0u32)?;
+        let cls = s.try_alloc_slice(ni, UNUSED)?;
         let state = s.try_alloc_slice(nf, UND)?;
         let sel = s.try_alloc_slice(ne, 0u32)?;
         let und = s.try_alloc_slice(ne, 0u32)?;
@@ -1633,7 +1710,7 @@ pub fn try_select_in<'a>(
         let con = s.try_alloc_slice(ni, 0.0f64)?;
         let coff = s.try_alloc_slice(ni, 0.0f64)?;
         let top_id = s.try_alloc_slice(ne, [u32::MAX; 3])?;
-        let top_v = s.try_alloc_slice(ne, [NEG; 3])?;
+        let top_v = s.try_alloc_slice(ne, [NEG; 5])?;
         let term = s.try_alloc_slice(ne, 0.0f64)?;
         let in_e = s.try_alloc_slice(ne, false)?;
         let in_f = s.try_alloc_slice(nf, false)?;
@@ -1687,6 +1764,43 @@ pub fn try_select_in<'a>(
             sel[e] += 1;
         }
         sel.fill(0);
+        // Classes (see `Solver::cls`): on each edge, a facet's fold group holding
+        // the most facets of the edge (at least two; ties to the lower id). `deg`
+        // (idle here) counts them.
+        if let Some(masks) = input.edge_mask {
+            let amo = |g: u32| masks[g as usize] & 0b100 == 0;
+            for e in (0..ne).filter(|&e| !amo(e as u32)) {
+                let r = start[e] as usize..start[e + 1] as usize;
+                let groups = |x: u32| {
+                    let f = owner[x as usize] as usize;
+                    fcon[fstart[f] as usize..fstart[f + 1] as usize]
+                        .iter()
+                        .copied()
+                        .filter(move |&g| g as usize != e && amo(g))
+                };
+                for &x in &inc[r.clone()] {
+                    for g in groups(x) {
+                        deg[g as usize] += 1;
+                    }
+                }
+                for &x in &inc[r.clone()] {
+                    let mut best = (1u32, UNUSED);
+                    for g in groups(x) {
+                        let c = deg[g as usize];
+                        if c > best.0 || (c == best.0 && c >= 2 && g < best.1) {
+                            best = (c, g);
+                        }
+                    }
+                    cls[x as usize] = best.1;
+                }
+                for &x in &inc[r.clone()] {
+                    for g in groups(x) {
+                        deg[g as usize] = 0;
+                    }
+                }
+                inc[r].sort_unstable_by_key(|&x| (cls[x as usize], x));
+            }
+        }
 
         let mut sv = Solver {
             fstart,
@@ -1697,6 +1811,7 @@ pub fn try_select_in<'a>(
             pens: input.edge_penalty,
             start,
             inc,
+            cls,
             state,
             sel,
             und,
