@@ -224,20 +224,12 @@ impl<'a> ClusterState<'a> {
         }
         self.m += added;
         let grown = self.m;
-        self.stats.energy = arena.scratch(|s| {
-            partition(
-                s,
-                &ctx,
-                &self.generators[..grown],
-                &self.seeds[..grown],
-                self.labels,
-            )
-        })?;
         let mut st = State {
             labels: &mut *self.labels,
             generators: &mut *self.generators,
             seeds: &mut *self.seeds,
         };
+        self.stats.energy = repartition(arena, &ctx, &mut st, grown)?;
         let planned = self.stats.passes + params.split_iterations.max(1);
         passes(
             arena,
@@ -351,15 +343,7 @@ pub fn try_cluster_state_in<'a>(
                 break;
             }
             let grown = m + added;
-            stats.energy = arena.scratch(|s| {
-                partition(
-                    s,
-                    &ctx,
-                    &st.generators[..grown],
-                    &st.seeds[..grown],
-                    st.labels,
-                )
-            })?;
+            stats.energy = repartition(arena, &ctx, &mut st, grown)?;
             if relax {
                 pass(&mut st, grown, params.split_iterations, &mut stats)?;
             }
@@ -382,9 +366,7 @@ pub fn try_cluster_state_in<'a>(
                 // half the batch.
                 st.generators[..m].copy_from_slice(&backup_g[..m]);
                 st.seeds[..m].copy_from_slice(&backup_s[..m]);
-                stats.energy = arena.scratch(|s| {
-                    partition(s, &ctx, &st.generators[..m], &st.seeds[..m], st.labels)
-                })?;
+                stats.energy = repartition(arena, &ctx, &mut st, m)?;
                 stats.rejected_batches += 1;
                 if relax {
                     relax = false;
@@ -425,6 +407,12 @@ struct State<'x> {
     seeds: &'x mut [u32],
 }
 
+/// Partition the points among the first `m` clusters of `st` (scratch from
+/// `arena`); returns the energy.
+fn repartition(arena: &Arena, ctx: &Ctx, st: &mut State, m: usize) -> Result<f64> {
+    arena.scratch(|s| partition(s, ctx, &st.generators[..m], &st.seeds[..m], st.labels))
+}
+
 /// Up to `count` update + partition passes over the first `m` clusters; stops
 /// early when no generator moves.
 #[allow(clippy::too_many_arguments)]
@@ -460,8 +448,7 @@ fn passes(
             stats.converged = true;
             break;
         }
-        stats.energy =
-            arena.scratch(|s| partition(s, ctx, &st.generators[..m], &st.seeds[..m], st.labels))?;
+        stats.energy = repartition(arena, ctx, st, m)?;
     }
     Ok(())
 }

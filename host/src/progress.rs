@@ -55,6 +55,27 @@ impl StageClock {
             .sum()
     }
 
+    /// `"read 1.2 ms, neighbours 30.4 ms, ..., total 95.0 ms"`.
+    pub fn summary(&self) -> String {
+        let mut parts: Vec<String> = self
+            .times
+            .iter()
+            .map(|(k, d)| format!("{k} {:.1} ms", ms(*d)))
+            .collect();
+        parts.push(format!("total {:.1} ms", ms(self.total())));
+        parts.join(", ")
+    }
+
+    /// The stage times in milliseconds as a JSON object, with `total`.
+    pub fn json(&self) -> String {
+        let mut o = crate::json::Obj::default();
+        for (k, d) in &self.times {
+            o.num(k, ms(*d));
+        }
+        o.num("total", ms(self.total()));
+        o.finish().replace('\n', "\n  ")
+    }
+
     fn draw(&mut self, stage: Stage, done: u64, total: u64) {
         let now = Instant::now();
         if let Some(t) = self.last_draw {
@@ -97,4 +118,9 @@ impl Progress for StageClock {
         }
         Flow::Continue
     }
+}
+
+/// A duration in milliseconds.
+pub fn ms(d: Duration) -> f64 {
+    d.as_secs_f64() * 1e3
 }

@@ -180,10 +180,6 @@ struct Report<'r> {
     output: &'r Path,
 }
 
-fn ms(d: std::time::Duration) -> f64 {
-    d.as_secs_f64() * 1e3
-}
-
 impl Report<'_> {
     fn text(&self) -> String {
         let s = &self.out.stats;
@@ -195,18 +191,12 @@ impl Report<'_> {
         } else {
             "normals by PCA"
         };
-        let times: Vec<String> = self
-            .clock
-            .times
-            .iter()
-            .map(|(k, d)| format!("{k} {:.1} ms", ms(*d)))
-            .collect();
         format!(
             "input      {}: {n} points, {normals}, bounding-box diagonal {diag:.6}\n\
              neighbours k = {}, average spacing {:.3}% of the diagonal\n\
              clusters   {} ({} initial, +{} by splitting in {} batches, {} batches undone), {} passes{}\n\
              max error  {:.3}% of the diagonal (tolerance {:.3}%)\n\
-             time       {}, total {:.1} ms\n\
+             time       {}\n\
              memory     arena peak {} bytes ({:.1} bytes/point), {} reserved\n\
              output     {}: {n} points coloured by cluster + {} generators (black)\n",
             self.input.name,
@@ -221,8 +211,7 @@ impl Report<'_> {
             if c.converged { ", converged" } else { "" },
             c.max_error * 100.0,
             self.params.tolerance * 100.0,
-            times.join(", "),
-            ms(self.clock.total()),
+            self.clock.summary(),
             s.peak_clustering,
             s.peak_clustering as f64 / n as f64,
             self.arena_bytes,
@@ -234,11 +223,6 @@ impl Report<'_> {
     fn json(&self) -> String {
         let s = &self.out.stats;
         let c = &s.cluster;
-        let mut times = json::Obj::default();
-        for (k, d) in &self.clock.times {
-            times.num(k, ms(*d));
-        }
-        times.num("total", ms(self.clock.total()));
         let mut o = json::Obj::default();
         o.str("input", &self.input.name)
             .num("points", self.input.points.len() as f64)
@@ -262,7 +246,7 @@ impl Report<'_> {
             .bool("converged", c.converged)
             .num("max_error_relative", c.max_error as f64)
             .num("tolerance_relative", self.params.tolerance as f64)
-            .raw("time_ms", &times.finish().replace('\n', "\n  "))
+            .raw("time_ms", &self.clock.json())
             .num("arena_peak_bytes", s.peak_clustering as f64)
             .num("arena_reserved_bytes", self.arena_bytes as f64)
             .str("output", &self.output.display().to_string());

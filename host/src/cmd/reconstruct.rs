@@ -148,10 +148,6 @@ struct Report<'r> {
     output: &'r Path,
 }
 
-fn ms(d: std::time::Duration) -> f64 {
-    d.as_secs_f64() * 1e3
-}
-
 impl Report<'_> {
     fn text(&self) -> String {
         let c = &self.out.clustered.stats;
@@ -166,12 +162,6 @@ impl Report<'_> {
         } else {
             "normals by PCA"
         };
-        let times: Vec<String> = self
-            .clock
-            .times
-            .iter()
-            .map(|(k, d)| format!("{k} {:.1} ms", ms(*d)))
-            .collect();
         let solver = if sel.optimal {
             format!("optimal ({} nodes)", sel.nodes)
         } else {
@@ -200,7 +190,7 @@ impl Report<'_> {
              candidates {} edges, {} facets ({} degenerate, {} fold groups, {} generators merged), {:.1} supports per facet\n\
              selection  {solver}, {} independent parts (largest {} facets), {} facets fixed by propagation\n\
              mesh       {} vertices, {} faces, {} components, {closed}\n\
-             time       {}, total {:.1} ms\n\
+             time       {}\n\
              memory     arena peak {} bytes ({:.1} bytes/point), {} reserved\n\
              output     {}\n",
             self.input.name,
@@ -222,8 +212,7 @@ impl Report<'_> {
             mesh.vertices,
             mesh.faces,
             mesh.components,
-            times.join(", "),
-            ms(self.clock.total()),
+            self.clock.summary(),
             m.peak,
             m.peak as f64 / n as f64,
             self.arena_bytes,
@@ -237,11 +226,6 @@ impl Report<'_> {
         let m = &self.out.meshing;
         let sel = &m.selection;
         let mesh = &m.mesh;
-        let mut times = json::Obj::default();
-        for (k, d) in &self.clock.times {
-            times.num(k, ms(*d));
-        }
-        times.num("total", ms(self.clock.total()));
         let mut o = json::Obj::default();
         o.str("input", &self.input.name)
             .num("points", self.input.points.len() as f64)
@@ -278,7 +262,7 @@ impl Report<'_> {
             .num("split_vertices", mesh.split_vertices as f64)
             .num("uncovered_clusters", mesh.uncovered_clusters as f64)
             .num("uncovered_points", mesh.uncovered_points as f64)
-            .raw("time_ms", &times.finish().replace('\n', "\n  "))
+            .raw("time_ms", &self.clock.json())
             .num("arena_peak_bytes", m.peak as f64)
             .num("arena_reserved_bytes", self.arena_bytes as f64)
             .str("output", &self.output.display().to_string());
