@@ -18,6 +18,7 @@
 //! grid items on average (a few dozen on scanned models), and O(P + S + F) memory.
 //! Queries are spread over the available cores; results do not depend on how many.
 
+use crate::geom::{cross, dot, sub};
 use std::thread;
 
 /// Surface samples of the mesh -> points direction unless told otherwise.
@@ -203,22 +204,6 @@ pub fn evaluate(
 
 // ---------------------------------------------------------------------------------
 // Geometry helpers
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
 
 fn axpy(a: [f64; 3], s: f64, d: [f64; 3]) -> [f64; 3] {
     [a[0] + s * d[0], a[1] + s * d[1], a[2] + s * d[2]]

@@ -3,6 +3,7 @@
 
 pub mod cmd;
 pub mod eval;
+pub mod geom;
 pub mod input;
 pub mod io;
 pub mod json;

@@ -36,3 +36,18 @@ pub fn label_colour(label: u32) -> [u8; 3] {
     let m = v - c;
     [r, g, b].map(|t| ((t + m) * 255.0).round() as u8)
 }
+
+/// Print the text report and, when asked, write the JSON report atomically.
+pub fn publish(
+    text: &str,
+    json_path: Option<&std::path::Path>,
+    json: impl FnOnce() -> String,
+) -> Result<(), String> {
+    print!("{text}");
+    if let Some(path) = json_path {
+        let body = json();
+        crate::io::write_atomic(path, |w| w.write_all(body.as_bytes()))
+            .map_err(|e| e.to_string())?;
+    }
+    Ok(())
+}

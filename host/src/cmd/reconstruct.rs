@@ -112,11 +112,7 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
             arena_bytes: bytes,
             output: &cmd.output,
         };
-        print!("{}", report.text());
-        if let Some(path) = &cmd.report {
-            let text = report.json();
-            write_atomic(path, |w| w.write_all(text.as_bytes())).map_err(|e| e.to_string())?;
-        }
+        crate::cmd::publish(&report.text(), cmd.report.as_deref(), || report.json())?;
         return Ok(());
     }
 }
