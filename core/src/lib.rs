@@ -305,13 +305,18 @@ fn mesh_round<'a>(
         let scores = score::try_scores_in(s, points, &members, &cand, gens, nb.spacing, diag, &sp)?;
         progress::tick(progress, Stage::Scoring, 1, 1)?;
         // Constraints: candidate edges (0 or 2 facets) and fold groups (at most one
-        // facet per 20-degree wedge around an edge), ids E.. for the groups.
+        // facet per 45-degree wedge around an edge), ids E.. for the groups.
         let groups = candidates::try_fold_groups_in(s, &cand, gens)?;
         let ne = cand.edges.len();
         let nf = cand.facets.len();
-        let masks = s.try_alloc_slice::<u8>(ne + groups.count as usize, select::MASK_CLOSED)?;
+        // Edges may end with one facet at `border_penalty`; groups hold at most one.
+        let masks = s.try_alloc_slice::<u8>(ne + groups.count as usize, select::MASK_BORDER)?;
         for m in masks[ne..].iter_mut() {
             *m = select::MASK_AT_MOST_ONE;
+        }
+        let penalty = s.try_alloc_slice::<f32>(masks.len(), 0.0)?;
+        for p in penalty[..ne].iter_mut() {
+            *p = params.border_penalty;
         }
         let cons = s.try_alloc_slice::<[u32; 6]>(nf, [u32::MAX; 6])?;
         for f in 0..nf {
@@ -329,6 +334,7 @@ fn mesh_round<'a>(
         progress::tick(progress, Stage::Selection, 0, nf as u64)?;
         let input = select::SelectInput {
             edge_mask: Some(masks),
+            edge_penalty: Some(penalty),
             node_limit: params.node_limit,
             ..select::SelectInput::new(cons, scores.score, masks.len())
         };
@@ -338,7 +344,16 @@ fn mesh_round<'a>(
             !cancelled
         })?;
         progress::tick(progress, Stage::Output, 0, 1)?;
-        let mesh = mesh::try_mesh_in(arena, s, &cand, &members, selected, gens)?;
+        let mesh = mesh::try_mesh_in(
+            arena,
+            s,
+            &cand,
+            &members,
+            selected,
+            gens,
+            params.max_hole,
+            diag,
+        )?;
         // Clusters with points but no face.
         let uncovered = s.scratch(|t| -> Result<&'a [u32]> {
             let used = t.try_alloc_slice::<bool>(gens.len(), false)?;

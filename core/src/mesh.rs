@@ -11,16 +11,27 @@
 //!   that share an edge through it; a generator whose faces form several fans
 //!   becomes one vertex per fan (same position), so every vertex's faces form a
 //!   single fan.
+//! - **Holes**: the selection may leave an edge with one facet (at the border
+//!   penalty). Boundary loops of at most `max_hole` edges are closed by ears,
+//!   shortest new edge first, never degenerate and never reusing an edge the mesh
+//!   has, so edges keep at most two faces and the new faces follow the loop's
+//!   orientation.
+//! - **Twists**: edge constraints cannot see a fold-over between facets that share
+//!   no edge, so a selection can be non-orientable. The faces around an edge where
+//!   the orientation clashes are cut out (every face touching its vertices) and
+//!   the hole closed again, at most three times.
 //! - No degenerate faces (dropped with the candidates), no duplicates (candidate
-//!   facets are distinct vertex triples), every vertex used.
+//!   facets are distinct vertex triples; a filled triangle equal to an existing
+//!   face is refused), every vertex used.
 //!
 //! Memory: the mesh (12 bytes per vertex and per face) plus O(faces + candidate
 //! edges) scratch. Cost: linear in faces and edges.
 
 use crate::arena::{Alloc, Arena};
+use crate::candidates::degenerate;
 use crate::candidates::{Candidates, Members};
 use crate::error::Result;
-use crate::math::V3;
+use crate::math::{cross, dist2, dot, sub, V3};
 
 /// Facts about the output mesh.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -40,6 +51,14 @@ pub struct MeshStats {
     pub split_vertices: u32,
     /// Faces dropped because their edge already had two.
     pub dropped_faces: u32,
+    /// Boundary loops closed by hole filling.
+    pub holes_filled: u32,
+    /// Faces added by hole filling.
+    pub filled_faces: u32,
+    /// Boundary loops left open (longer than the limit, or no admissible ear).
+    pub holes_left: u32,
+    /// Orientation clashes cut out and closed again.
+    pub repairs: u32,
     /// Clusters (with points) that no face uses: uncovered parts of the data.
     pub uncovered_clusters: u32,
     /// Points in those clusters.
@@ -61,65 +80,71 @@ pub struct Mesh<'a> {
 
 const NO: u32 = u32::MAX;
 
-/// Build the mesh of the `selected` candidate facets. Working memory comes from
-/// `work`; the result is allocated in `out` (which may be the same allocator).
-pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
-    out: &'o Arena<'b>,
-    work: &W,
-    cand: &Candidates,
-    members: &Members,
-    selected: &[bool],
-    generators: &[V3],
-) -> Result<Mesh<'o>> {
-    let m = generators.len();
-    let ne = cand.edges.len();
-    work.scratch(|s| -> Result<Mesh<'o>> {
-        // Faces (cluster triples) with their candidate edge ids, and edge -> faces.
-        let nsel = selected.iter().filter(|&&b| b).count();
-        let faces = s.try_alloc_slice::<[u32; 3]>(nsel, [0; 3])?;
-        let fedges = s.try_alloc_slice::<[u32; 3]>(nsel, [0; 3])?;
-        let edge_faces = s.try_alloc_slice::<[u32; 2]>(ne, [NO, NO])?;
-        let mut nf = 0usize;
-        let mut dropped = 0u32;
-        for (i, _) in selected.iter().enumerate().filter(|(_, &b)| b) {
-            let e = cand.facet_edges[i];
-            if e.iter().any(|&x| edge_faces[x as usize][1] != NO) {
-                dropped += 1;
-                continue;
-            }
-            for &x in &e {
-                let slot = &mut edge_faces[x as usize];
-                if slot[0] == NO {
-                    slot[0] = nf as u32;
-                } else {
-                    slot[1] = nf as u32;
-                }
-            }
-            faces[nf] = cand.facets[i];
-            fedges[nf] = e;
-            nf += 1;
+/// Rounds of cutting out orientation clashes at most.
+const REPAIRS: u32 = 3;
+
+/// Faces of an edge, found by binary search in the sorted `(edge key, face)` table.
+fn faces_of(table: &[(u64, u32)], key: u64) -> &[(u64, u32)] {
+    let lo = table.partition_point(|x| x.0 < key);
+    let hi = lo + table[lo..].partition_point(|x| x.0 == key);
+    &table[lo..hi]
+}
+
+fn key(u: u32, v: u32) -> u64 {
+    let (a, b) = if u < v { (u, v) } else { (v, u) };
+    ((a as u64) << 32) | b as u64
+}
+
+/// `(edge key, face)` for every edge of every face, sorted.
+fn edge_table<'s, 'b, S: Alloc<'b>>(s: &'s S, faces: &[[u32; 3]]) -> Result<&'s [(u64, u32)]> {
+    let table = s.try_alloc_slice::<(u64, u32)>(3 * faces.len(), (0, 0))?;
+    for (f, t) in faces.iter().enumerate() {
+        for k in 0..3 {
+            table[3 * f + k] = (key(t[k], t[(k + 1) % 3]), f as u32);
         }
-        let faces = &mut faces[..nf];
-        let fedges = &fedges[..nf];
-        // Orientation: flip[f] says whether face f is reversed.
-        let flip = s.try_alloc_slice::<bool>(nf, false)?;
-        let comp = s.try_alloc_slice::<u32>(nf, NO)?;
-        let queue = s.try_alloc_slice::<u32>(nf, 0)?;
-        let mut components = 0u32;
-        let mut non_orientable = 0u32;
+    }
+    table.sort_unstable();
+    Ok(table)
+}
+
+/// +1 if the cycle `c` runs `u -> v`, -1 if `v -> u`, 0 if it has no such edge.
+fn dir(c: [u32; 3], u: u32, v: u32) -> i32 {
+    for k in 0..3 {
+        if c[k] == u && c[(k + 1) % 3] == v {
+            return 1;
+        }
+        if c[k] == v && c[(k + 1) % 3] == u {
+            return -1;
+        }
+    }
+    0
+}
+
+fn det(p: [[f64; 3]; 3]) -> f64 {
+    p[0][0] * (p[1][1] * p[2][2] - p[1][2] * p[2][1])
+        - p[0][1] * (p[1][0] * p[2][2] - p[1][2] * p[2][0])
+        + p[0][2] * (p[1][0] * p[2][1] - p[1][1] * p[2][0])
+}
+
+/// Orient the faces in place: neighbours run their shared edge in opposite
+/// directions, and each component encloses a positive volume. Returns the number
+/// of components and of components that could not be oriented consistently; the
+/// faces on both sides of an edge where the orientation clashes are marked in
+/// `clash`.
+fn orient<'b, S: Alloc<'b>>(
+    s: &S,
+    faces: &mut [[u32; 3]],
+    generators: &[V3],
+    clash: &mut [bool],
+) -> Result<(u32, u32)> {
+    let nf = faces.len();
+    s.scratch(|t| {
+        let table = edge_table(t, faces)?;
+        let flip = t.try_alloc_slice::<bool>(nf, false)?;
+        let comp = t.try_alloc_slice::<u32>(nf, NO)?;
+        let queue = t.try_alloc_slice::<u32>(nf, 0)?;
         let cycle = |f: &[u32; 3], flipped: bool| if flipped { [f[0], f[2], f[1]] } else { *f };
-        // +1 if the oriented cycle runs u -> v, -1 if v -> u.
-        let dir = |c: [u32; 3], u: u32, v: u32| -> i32 {
-            for k in 0..3 {
-                if c[k] == u && c[(k + 1) % 3] == v {
-                    return 1;
-                }
-                if c[k] == v && c[(k + 1) % 3] == u {
-                    return -1;
-                }
-            }
-            0
-        };
+        let (mut components, mut non_orientable) = (0u32, 0u32);
         for start in 0..nf {
             if comp[start] != NO {
                 continue;
@@ -127,38 +152,32 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             let id = components;
             components += 1;
             comp[start] = id;
-            let (mut head, mut tail) = (0usize, 0usize);
-            queue[tail] = start as u32;
-            tail += 1;
+            queue[0] = start as u32;
+            let (mut head, mut tail) = (0usize, 1usize);
             let mut conflict = false;
             while head < tail {
                 let f = queue[head] as usize;
                 head += 1;
                 let cf = cycle(&faces[f], flip[f]);
-                for &e in &fedges[f] {
-                    let [u, v] = cand.edges[e as usize];
-                    let pair = edge_faces[e as usize];
-                    let g = if pair[0] as usize == f {
-                        pair[1]
-                    } else {
-                        pair[0]
-                    };
-                    if g == NO {
-                        continue;
-                    }
-                    let g = g as usize;
-                    let want_flip = {
-                        let cg = cycle(&faces[g], false);
+                for k in 0..3 {
+                    let (u, v) = (cf[k], cf[(k + 1) % 3]);
+                    for &(_, g) in faces_of(table, key(u, v)) {
+                        let g = g as usize;
+                        if g == f {
+                            continue;
+                        }
                         // g must run the edge opposite to f.
-                        dir(cg, u, v) == dir(cf, u, v)
-                    };
-                    if comp[g] == NO {
-                        comp[g] = id;
-                        flip[g] = want_flip;
-                        queue[tail] = g as u32;
-                        tail += 1;
-                    } else if flip[g] != want_flip {
-                        conflict = true;
+                        let want_flip = dir(faces[g], u, v) == 1;
+                        if comp[g] == NO {
+                            comp[g] = id;
+                            flip[g] = want_flip;
+                            queue[tail] = g as u32;
+                            tail += 1;
+                        } else if flip[g] != want_flip {
+                            conflict = true;
+                            clash[f] = true;
+                            clash[g] = true;
+                        }
                     }
                 }
             }
@@ -166,15 +185,10 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
                 non_orientable += 1;
             }
         }
-        // Outward: a component with negative signed volume is reversed.
-        let volume = s.try_alloc_slice::<f64>(components as usize, 0.0)?;
+        let volume = t.try_alloc_slice::<f64>(components as usize, 0.0)?;
         for f in 0..nf {
             let c = cycle(&faces[f], flip[f]);
-            let p = c.map(|j| generators[j as usize].map(|x| x as f64));
-            let det = p[0][0] * (p[1][1] * p[2][2] - p[1][2] * p[2][1])
-                - p[0][1] * (p[1][0] * p[2][2] - p[1][2] * p[2][0])
-                + p[0][2] * (p[1][0] * p[2][1] - p[1][1] * p[2][0]);
-            volume[comp[f] as usize] += det;
+            volume[comp[f] as usize] += det(c.map(|j| generators[j as usize].map(|x| x as f64)));
         }
         for f in 0..nf {
             if volume[comp[f] as usize] < 0.0 {
@@ -182,28 +196,301 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             }
             faces[f] = cycle(&faces[f], flip[f]);
         }
+        Ok((components, non_orientable))
+    })
+}
+
+/// What hole filling did.
+#[derive(Clone, Copy, Default)]
+struct Filled {
+    faces: usize,
+    holes: u32,
+    left: u32,
+}
+
+/// Close the boundary loops of the oriented `faces[..nf]` that have at most
+/// `max_hole` edges, appending faces after `nf` (room for one face per boundary
+/// edge is required). Each loop is cut by ears, the shortest new edge first
+/// (an ear turning against the loop's surrounding faces costs 16 times more); an
+/// ear is never degenerate and never adds an edge the mesh already has, so every
+/// edge keeps at most two faces. A loop with no admissible ear stays open.
+fn fill_holes<'b, S: Alloc<'b>>(
+    s: &S,
+    faces: &mut [[u32; 3]],
+    nf: usize,
+    generators: &[V3],
+    max_hole: u32,
+    tol: f32,
+) -> Result<Filled> {
+    let mut out = Filled::default();
+    s.scratch(|t| {
+        let table = edge_table(t, &faces[..nf])?;
+        // Hole half-edges (from, to, face): the reverse of each boundary edge.
+        let mut nh = 0usize;
+        for (i, &(k, _)) in table.iter().enumerate() {
+            let alone =
+                (i == 0 || table[i - 1].0 != k) && (i + 1 == table.len() || table[i + 1].0 != k);
+            nh += alone as usize;
+        }
+        if nh == 0 {
+            return Ok(out);
+        }
+        let holes = t.try_alloc_slice::<(u32, u32, u32)>(nh, (0, 0, 0))?;
+        let mut w = 0;
+        for (i, &(k, f)) in table.iter().enumerate() {
+            let alone =
+                (i == 0 || table[i - 1].0 != k) && (i + 1 == table.len() || table[i + 1].0 != k);
+            if alone {
+                let (u, v) = ((k >> 32) as u32, k as u32);
+                let c = faces[f as usize];
+                holes[w] = if dir(c, u, v) == 1 {
+                    (v, u, f)
+                } else {
+                    (u, v, f)
+                };
+                w += 1;
+            }
+        }
+        holes.sort_unstable();
+        if faces.len() - nf < nh {
+            out.left = 1;
+            return Ok(out);
+        }
+        let used = t.try_alloc_slice::<bool>(nh, false)?;
+        let poly = t.try_alloc_slice::<u32>(nh, 0)?;
+        let added = t.try_alloc_slice::<u64>(nh, 0)?;
+        let mut n_added = 0usize;
+        let g = |j: u32| generators[j as usize];
+        for h0 in 0..nh {
+            if used[h0] {
+                continue;
+            }
+            // Trace the loop through unused hole half-edges.
+            let (first, mut cur, f0) = holes[h0];
+            used[h0] = true;
+            poly[0] = first;
+            let mut len = 1usize;
+            let mut normal = face_normal(faces[f0 as usize].map(g));
+            let mut closed = true;
+            while cur != first {
+                let lo = holes.partition_point(|x| x.0 < cur);
+                let next = (lo..nh)
+                    .take_while(|&i| holes[i].0 == cur)
+                    .find(|&i| !used[i]);
+                let Some(h) = next else {
+                    closed = false;
+                    break;
+                };
+                used[h] = true;
+                poly[len] = cur;
+                len += 1;
+                normal = add(normal, face_normal(faces[holes[h].2 as usize].map(g)));
+                cur = holes[h].1;
+            }
+            if !closed || len < 3 || len > max_hole as usize {
+                out.left += 1;
+                continue;
+            }
+            let exists = |a: u32, b: u32, added: &[u64]| {
+                !faces_of(table, key(a, b)).is_empty() || added.contains(&key(a, b))
+            };
+            let start_faces = nf + out.faces;
+            let mut ok = true;
+            while len > 3 {
+                let mut best: Option<(f32, usize)> = None;
+                for i in 0..len {
+                    let (a, b, c) = (poly[(i + len - 1) % len], poly[i], poly[(i + 1) % len]);
+                    if a == c
+                        || exists(a, c, &added[..n_added])
+                        || degenerate(g(a), g(b), g(c), tol)
+                    {
+                        continue;
+                    }
+                    let turn = dot(cross(sub(g(b), g(a)), sub(g(c), g(b))), normal);
+                    let cost = dist2(g(a), g(c)) * if turn < 0.0 { 16.0 } else { 1.0 };
+                    if best.is_none_or(|(bc, _)| cost < bc) {
+                        best = Some((cost, i));
+                    }
+                }
+                let Some((_, i)) = best else {
+                    ok = false;
+                    break;
+                };
+                let (a, b, c) = (poly[(i + len - 1) % len], poly[i], poly[(i + 1) % len]);
+                faces[nf + out.faces] = [a, b, c];
+                out.faces += 1;
+                added[n_added] = key(a, c);
+                n_added += 1;
+                poly.copy_within(i + 1..len, i);
+                len -= 1;
+            }
+            if ok {
+                let (a, b, c) = (poly[0], poly[1], poly[2]);
+                let mut tri = [a, b, c];
+                tri.sort_unstable();
+                let duplicate = faces_of(table, key(a, b)).iter().any(|&(_, f)| {
+                    let mut x = faces[f as usize];
+                    x.sort_unstable();
+                    x == tri
+                });
+                ok = !duplicate && !degenerate(g(a), g(b), g(c), tol);
+                if ok {
+                    faces[nf + out.faces] = [a, b, c];
+                    out.faces += 1;
+                }
+            }
+            if ok {
+                out.holes += 1;
+            } else {
+                // Leave the loop as it was: drop this loop's ears.
+                out.faces = start_faces - nf;
+                out.left += 1;
+            }
+        }
+        Ok(out)
+    })
+}
+
+fn face_normal(p: [V3; 3]) -> V3 {
+    cross(sub(p[1], p[0]), sub(p[2], p[0]))
+}
+
+fn add(a: V3, b: V3) -> V3 {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+
+/// Build the mesh of the `selected` candidate facets, closing boundary loops of
+/// at most `max_hole` edges (0: none). `diag` is the bounding-box diagonal (for
+/// the degeneracy tolerance of filled faces). Working memory comes from `work`;
+/// the result is allocated in `out` (which may be the same allocator).
+#[allow(clippy::too_many_arguments)]
+pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
+    out: &'o Arena<'b>,
+    work: &W,
+    cand: &Candidates,
+    members: &Members,
+    selected: &[bool],
+    generators: &[V3],
+    max_hole: u32,
+    diag: f32,
+) -> Result<Mesh<'o>> {
+    let m = generators.len();
+    let ne = cand.edges.len();
+    work.scratch(|s| -> Result<Mesh<'o>> {
+        // Faces (cluster triples); a face that would be an edge's third is dropped.
+        let (nf, dropped, boundary0) = s.scratch(|t| -> Result<(usize, u32, usize)> {
+            let count = t.try_alloc_slice::<u8>(ne, 0)?;
+            let (mut nf, mut dropped) = (0usize, 0u32);
+            for (i, _) in selected.iter().enumerate().filter(|(_, &b)| b) {
+                let e = cand.facet_edges[i];
+                if e.iter().any(|&x| count[x as usize] >= 2) {
+                    dropped += 1;
+                    continue;
+                }
+                for &x in &e {
+                    count[x as usize] += 1;
+                }
+                nf += 1;
+            }
+            Ok((nf, dropped, count.iter().filter(|&&c| c == 1).count()))
+        })?;
+        // Room for hole filling: the selection's boundary edges, then three per
+        // face removed by repairs.
+        let room = if max_hole > 0 {
+            boundary0 + 2 * nf + 16
+        } else {
+            0
+        };
+        let faces = s.try_alloc_slice::<[u32; 3]>(nf + room, [0; 3])?;
+        s.scratch(|t| -> Result<()> {
+            let count = t.try_alloc_slice::<u8>(ne, 0)?;
+            let mut w = 0;
+            for (i, _) in selected.iter().enumerate().filter(|(_, &b)| b) {
+                let e = cand.facet_edges[i];
+                if e.iter().any(|&x| count[x as usize] >= 2) {
+                    continue;
+                }
+                for &x in &e {
+                    count[x as usize] += 1;
+                }
+                faces[w] = cand.facets[i];
+                w += 1;
+            }
+            Ok(())
+        })?;
+        let tol = crate::candidates::COINCIDENT * diag;
+        let clash = s.try_alloc_slice::<bool>(faces.len(), false)?;
+        let mut nf = nf;
+        let mut filled = Filled::default();
+        let mut repaired = 0u32;
+        let (components, non_orientable) = loop {
+            clash[..nf].fill(false);
+            let (components, non_orientable) = orient(s, &mut faces[..nf], generators, clash)?;
+            if max_hole == 0 {
+                break (components, non_orientable);
+            }
+            // Close the holes; a clash (the selection folded over somewhere, which
+            // edge constraints cannot see) is cut out with the faces around it and
+            // closed again, a few times at most.
+            let more = fill_holes(s, faces, nf, generators, max_hole, tol)?;
+            filled.faces += more.faces;
+            filled.holes += more.holes;
+            filled.left = more.left;
+            nf += more.faces;
+            if non_orientable == 0 || repaired == REPAIRS {
+                if more.faces > 0 {
+                    clash[..nf].fill(false);
+                    break orient(s, &mut faces[..nf], generators, clash)?;
+                }
+                break (components, non_orientable);
+            }
+            repaired += 1;
+            nf = s.scratch(|t| -> Result<usize> {
+                let cut = t.try_alloc_slice::<bool>(m, false)?;
+                for f in 0..nf {
+                    if clash[f] {
+                        for &v in &faces[f] {
+                            cut[v as usize] = true;
+                        }
+                    }
+                }
+                let mut w = 0;
+                for f in 0..nf {
+                    if !faces[f].iter().any(|&v| cut[v as usize]) {
+                        faces[w] = faces[f];
+                        w += 1;
+                    }
+                }
+                Ok(w)
+            })?;
+        };
+        let faces = &mut faces[..nf];
         // Vertex-manifold: union the corners at one generator across shared edges.
+        let table = edge_table(s, faces)?;
         let parent = s.try_alloc_slice::<u32>(3 * nf, 0)?;
         for (i, p) in parent.iter_mut().enumerate() {
             *p = i as u32;
         }
-        let corner = |f: usize, v: u32, faces: &[[u32; 3]]| -> usize {
+        let corner = |f: usize, v: u32| -> usize {
             let k = faces[f].iter().position(|&x| x == v).unwrap_or(0);
             3 * f + k
         };
         let mut boundary = 0u32;
-        for (e, pair) in edge_faces.iter().enumerate() {
-            match *pair {
-                [NO, _] => {}
-                [_, NO] => boundary += 1,
-                [f, g] => {
-                    let [u, v] = cand.edges[e];
+        let mut i = 0;
+        while i < table.len() {
+            let k = table[i].0;
+            let run = faces_of(&table[i..], k);
+            match run {
+                [_] => boundary += 1,
+                [(_, f), (_, g), ..] => {
+                    let (u, v) = ((k >> 32) as u32, k as u32);
                     for w in [u, v] {
-                        let (a, b) = (corner(f as usize, w, faces), corner(g as usize, w, faces));
-                        union(parent, a, b);
+                        union(parent, corner(*f as usize, w), corner(*g as usize, w));
                     }
                 }
+                [] => {}
             }
+            i += run.len().max(1);
         }
         // One output vertex per corner group, numbered in face order.
         let vertex_of_root = s.try_alloc_slice::<u32>(3 * nf, NO)?;
@@ -251,6 +538,10 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
                 non_orientable,
                 split_vertices: nv - distinct,
                 dropped_faces: dropped,
+                holes_filled: filled.holes,
+                repairs: repaired,
+                filled_faces: filled.faces as u32,
+                holes_left: filled.left,
                 uncovered_clusters,
                 uncovered_points,
             },
@@ -272,5 +563,113 @@ fn union(parent: &mut [u32], a: usize, b: usize) {
     if ra != rb {
         let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
         parent[hi] = lo as u32;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::mem::MaybeUninit;
+    use std::vec;
+    use std::vec::Vec;
+
+    /// Octahedron around the origin, faces counter-clockwise from outside.
+    fn octahedron() -> (Vec<V3>, Vec<[u32; 3]>) {
+        let v = vec![
+            [1.0, 0.0, 0.0],
+            [-1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, -1.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [0.0, 0.0, -1.0],
+        ];
+        let f = vec![
+            [0, 2, 4],
+            [2, 1, 4],
+            [1, 3, 4],
+            [3, 0, 4],
+            [2, 0, 5],
+            [1, 2, 5],
+            [3, 1, 5],
+            [0, 3, 5],
+        ];
+        (v, f)
+    }
+
+    /// Every edge has exactly two faces running it in opposite directions.
+    fn closed_and_consistent(faces: &[[u32; 3]]) -> bool {
+        let mut half: Vec<(u32, u32)> = faces
+            .iter()
+            .flat_map(|t| (0..3).map(move |k| (t[k], t[(k + 1) % 3])))
+            .collect();
+        half.sort_unstable();
+        let n = half.len();
+        half.dedup();
+        half.len() == n && half.iter().all(|&(a, b)| half.binary_search(&(b, a)).is_ok())
+    }
+
+    fn fill(faces: &[[u32; 3]], v: &[V3], max_hole: u32) -> (Vec<[u32; 3]>, Filled, u32) {
+        let mut buf = vec![MaybeUninit::uninit(); 1 << 16];
+        let arena = Arena::new(&mut buf);
+        let nf = faces.len();
+        let all = arena.try_alloc_slice::<[u32; 3]>(3 * nf + 8, [0; 3]).unwrap();
+        all[..nf].copy_from_slice(faces);
+        let clash = arena.try_alloc_slice::<bool>(all.len(), false).unwrap();
+        orient(&arena, &mut all[..nf], v, clash).unwrap();
+        let filled = fill_holes(&arena, all, nf, v, max_hole, 1e-6).unwrap();
+        let total = nf + filled.faces;
+        clash.fill(false);
+        let (_, bad) = orient(&arena, &mut all[..total], v, clash).unwrap();
+        (all[..total].to_vec(), filled, bad)
+    }
+
+    #[test]
+    fn holes_close_into_a_consistently_oriented_surface() {
+        let (v, f) = octahedron();
+        assert!(closed_and_consistent(&f));
+        // One face missing: a triangular hole gets exactly that face back.
+        let (out, filled, bad) = fill(&f[1..], &v, 64);
+        assert_eq!((filled.holes, filled.faces, filled.left, bad), (1, 1, 0, 0));
+        assert!(closed_and_consistent(&out));
+        let mut back = out[out.len() - 1];
+        back.sort_unstable();
+        assert_eq!(back, [0, 2, 4]);
+        // Two faces around one vertex: a quad hole, two faces, no edge reused.
+        let (out, filled, bad) = fill(&f[2..], &v, 64);
+        assert_eq!((filled.holes, filled.faces, filled.left, bad), (1, 2, 0, 0));
+        assert!(closed_and_consistent(&out));
+        // The upper half gone: a square hole through four vertices of the waist.
+        let (out, filled, _) = fill(&f[4..], &v, 64);
+        assert_eq!((filled.holes, filled.faces), (1, 2));
+        assert!(closed_and_consistent(&out));
+    }
+
+    #[test]
+    fn holes_longer_than_the_limit_stay_open() {
+        let (v, f) = octahedron();
+        let (out, filled, _) = fill(&f[2..], &v, 3);
+        assert_eq!((filled.holes, filled.faces, filled.left), (0, 0, 1));
+        assert_eq!(out.len(), 6);
+        assert!(!closed_and_consistent(&out));
+    }
+
+    #[test]
+    fn an_ear_never_repeats_an_existing_edge() {
+        // A flat sheet of two triangles sharing edge 0-2: its outline 0-1-2-3 is
+        // one hole whose ears at 1 and 3 would add 0-2 a second time (a third face
+        // on it); the fill must use the diagonal 1-3 instead.
+        let v = vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+        ];
+        let f = [[0u32, 1, 2], [0, 2, 3]];
+        let (out, filled, bad) = fill(&f, &v, 64);
+        assert_eq!((filled.holes, filled.faces, filled.left, bad), (1, 2, 0, 0));
+        assert!(closed_and_consistent(&out));
+        for t in &out[2..] {
+            assert!(t.contains(&1) && t.contains(&3), "{t:?}");
+        }
     }
 }

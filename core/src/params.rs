@@ -47,9 +47,19 @@ pub struct Params {
     pub fitting_weight: f32,
     /// Weight of the coverage term in the facet score. Default 0.3.
     pub coverage_weight: f32,
-    /// Branch-and-bound search nodes allowed in facet selection. Default 200 000.
+    /// Cost of a selected facet's edge left with no partner (a hole or border edge),
+    /// in units of facet score (a facet scores about 0.5). Large values approach
+    /// the paper's strict closed-surface constraint, under which one missing
+    /// candidate anywhere forbids every closed surface; small ones let weak facets
+    /// go at the price of a hole. Default 2.
+    pub border_penalty: f32,
+    /// Boundary loops of the selection with at most this many edges are closed by
+    /// hole filling (0: none). Default 64.
+    pub max_hole: u32,
+    /// Branch-and-bound search nodes allowed in facet selection. Default 200.
     pub node_limit: u64,
-    /// Rounds of refinement where clusters are left out of the mesh. Default 2.
+    /// Rounds of refinement where clusters are left out of the mesh (each round
+    /// splits them and selects again). Default 0.
     pub refine_rounds: u32,
 }
 
@@ -69,8 +79,10 @@ impl Default for Params {
             alpha_scale: 5.0,
             fitting_weight: 0.4,
             coverage_weight: 0.3,
-            node_limit: crate::select::DEFAULT_NODE_LIMIT,
-            refine_rounds: 2,
+            border_penalty: 2.0,
+            max_hole: 64,
+            node_limit: 200,
+            refine_rounds: 0,
         }
     }
 }
@@ -102,6 +114,7 @@ impl Params {
             ("alpha_scale", self.alpha_scale),
             ("fitting_weight", self.fitting_weight),
             ("coverage_weight", self.coverage_weight),
+            ("border_penalty", self.border_penalty),
         ] {
             if !(v.is_finite() && v >= 0.0) {
                 return bad(name, v);

@@ -55,10 +55,23 @@ impl StageClock {
             .sum()
     }
 
+    /// Time per stage name, in order of first appearance (a stage run in several
+    /// rounds, like selection during refinement, is summed).
+    pub fn stages(&self) -> Vec<(&'static str, Duration)> {
+        let mut out: Vec<(&'static str, Duration)> = Vec::new();
+        for &(k, d) in &self.times {
+            match out.iter_mut().find(|(n, _)| *n == k) {
+                Some((_, t)) => *t += d,
+                None => out.push((k, d)),
+            }
+        }
+        out
+    }
+
     /// `"read 1.2 ms, neighbours 30.4 ms, ..., total 95.0 ms"`.
     pub fn summary(&self) -> String {
         let mut parts: Vec<String> = self
-            .times
+            .stages()
             .iter()
             .map(|(k, d)| format!("{k} {:.1} ms", ms(*d)))
             .collect();
@@ -69,7 +82,7 @@ impl StageClock {
     /// The stage times in milliseconds as a JSON object, with `total`.
     pub fn json(&self) -> String {
         let mut o = crate::json::Obj::default();
-        for (k, d) in &self.times {
+        for (k, d) in &self.stages() {
             o.num(k, ms(*d));
         }
         o.num("total", ms(self.total()));

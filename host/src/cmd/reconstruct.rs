@@ -26,6 +26,13 @@ pub struct MeshArgs {
     /// Weight of the coverage term in the facet score.
     #[arg(long, default_value_t = Params::default().coverage_weight)]
     pub coverage: f32,
+    /// Cost of leaving a selected facet's edge without a partner (a hole edge),
+    /// in units of facet score (about 0.5 per facet).
+    #[arg(long, default_value_t = Params::default().border_penalty)]
+    pub border_penalty: f32,
+    /// Close boundary loops of the selection with at most this many edges (0: none).
+    #[arg(long, default_value_t = Params::default().max_hole)]
+    pub max_hole: u32,
     /// Branch-and-bound node limit of the facet selection.
     #[arg(long, default_value_t = Params::default().node_limit)]
     pub node_limit: u64,
@@ -63,6 +70,8 @@ impl Cmd {
             fitting_weight: self.mesh.fitting,
             coverage_weight: self.mesh.coverage,
             node_limit: self.mesh.node_limit,
+            border_penalty: self.mesh.border_penalty,
+            max_hole: self.mesh.max_hole,
             refine_rounds: self.mesh.refine_rounds,
             ..self.cluster.params()
         }
@@ -186,6 +195,7 @@ impl Report<'_> {
              candidates {} edges, {} facets ({} degenerate, {} fold groups, {} generators merged), {:.1} supports per facet\n\
              selection  {solver}, {} independent parts (largest {} facets), {} facets fixed by propagation\n\
              mesh       {} vertices, {} faces, {} components, {closed}\n\
+             repair     {} holes closed with {} faces, {} left open; {} orientation clashes cut out; {} vertices split\n\
              time       {}\n\
              memory     arena peak {} bytes ({:.1} bytes/point), {} reserved\n\
              output     {}\n",
@@ -208,6 +218,11 @@ impl Report<'_> {
             mesh.vertices,
             mesh.faces,
             mesh.components,
+            mesh.holes_filled,
+            mesh.filled_faces,
+            mesh.holes_left,
+            mesh.repairs,
+            mesh.split_vertices,
             self.clock.summary(),
             m.peak,
             m.peak as f64 / n as f64,
@@ -256,6 +271,10 @@ impl Report<'_> {
             .num("components", mesh.components as f64)
             .num("non_orientable_components", mesh.non_orientable as f64)
             .num("split_vertices", mesh.split_vertices as f64)
+            .num("holes_filled", mesh.holes_filled as f64)
+            .num("filled_faces", mesh.filled_faces as f64)
+            .num("holes_left", mesh.holes_left as f64)
+            .num("orientation_repairs", mesh.repairs as f64)
             .num("uncovered_clusters", mesh.uncovered_clusters as f64)
             .num("uncovered_points", mesh.uncovered_points as f64)
             .raw("time_ms", &self.clock.json())
