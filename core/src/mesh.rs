@@ -605,14 +605,19 @@ mod tests {
         half.sort_unstable();
         let n = half.len();
         half.dedup();
-        half.len() == n && half.iter().all(|&(a, b)| half.binary_search(&(b, a)).is_ok())
+        half.len() == n
+            && half
+                .iter()
+                .all(|&(a, b)| half.binary_search(&(b, a)).is_ok())
     }
 
     fn fill(faces: &[[u32; 3]], v: &[V3], max_hole: u32) -> (Vec<[u32; 3]>, Filled, u32) {
         let mut buf = vec![MaybeUninit::uninit(); 1 << 16];
         let arena = Arena::new(&mut buf);
         let nf = faces.len();
-        let all = arena.try_alloc_slice::<[u32; 3]>(3 * nf + 8, [0; 3]).unwrap();
+        let all = arena
+            .try_alloc_slice::<[u32; 3]>(3 * nf + 8, [0; 3])
+            .unwrap();
         all[..nf].copy_from_slice(faces);
         let clash = arena.try_alloc_slice::<bool>(all.len(), false).unwrap();
         orient(&arena, &mut all[..nf], v, clash).unwrap();
