@@ -226,21 +226,19 @@ fn fill_holes<'b, S: Alloc<'b>>(
     s.scratch(|t| {
         let table = edge_table(t, &faces[..nf])?;
         // Hole half-edges (from, to, face): the reverse of each boundary edge.
-        let mut nh = 0usize;
-        for (i, &(k, _)) in table.iter().enumerate() {
-            let alone =
-                (i == 0 || table[i - 1].0 != k) && (i + 1 == table.len() || table[i + 1].0 != k);
-            nh += alone as usize;
-        }
+        // An edge with a single face: its key differs from both neighbours'.
+        let alone = |i: usize| {
+            let k = table[i].0;
+            (i == 0 || table[i - 1].0 != k) && (i + 1 == table.len() || table[i + 1].0 != k)
+        };
+        let nh = (0..table.len()).filter(|&i| alone(i)).count();
         if nh == 0 {
             return Ok(out);
         }
         let holes = t.try_alloc_slice::<(u32, u32, u32)>(nh, (0, 0, 0))?;
         let mut w = 0;
         for (i, &(k, f)) in table.iter().enumerate() {
-            let alone =
-                (i == 0 || table[i - 1].0 != k) && (i + 1 == table.len() || table[i + 1].0 != k);
-            if alone {
+            if alone(i) {
                 let (u, v) = ((k >> 32) as u32, k as u32);
                 let c = faces[f as usize];
                 holes[w] = if dir(c, u, v) == 1 {
@@ -378,6 +376,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
     let ne = cand.edges.len();
     work.scratch(|s| -> Result<Mesh<'o>> {
         // Faces (cluster triples); a face that would be an edge's third is dropped.
+        let keep = s.try_alloc_slice::<bool>(selected.len(), false)?;
         let (nf, dropped, boundary0) = s.scratch(|t| -> Result<(usize, u32, usize)> {
             let count = t.try_alloc_slice::<u8>(ne, 0)?;
             let (mut nf, mut dropped) = (0usize, 0u32);
@@ -390,6 +389,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
                 for &x in &e {
                     count[x as usize] += 1;
                 }
+                keep[i] = true;
                 nf += 1;
             }
             Ok((nf, dropped, count.iter().filter(|&&c| c == 1).count()))
@@ -402,22 +402,9 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             0
         };
         let faces = s.try_alloc_slice::<[u32; 3]>(nf + room, [0; 3])?;
-        s.scratch(|t| -> Result<()> {
-            let count = t.try_alloc_slice::<u8>(ne, 0)?;
-            let mut w = 0;
-            for (i, _) in selected.iter().enumerate().filter(|(_, &b)| b) {
-                let e = cand.facet_edges[i];
-                if e.iter().any(|&x| count[x as usize] >= 2) {
-                    continue;
-                }
-                for &x in &e {
-                    count[x as usize] += 1;
-                }
-                faces[w] = cand.facets[i];
-                w += 1;
-            }
-            Ok(())
-        })?;
+        for (w, i) in (0..selected.len()).filter(|&i| keep[i]).enumerate() {
+            faces[w] = cand.facets[i];
+        }
         let tol = crate::candidates::COINCIDENT * diag;
         let clash = s.try_alloc_slice::<bool>(faces.len(), false)?;
         let mut nf = nf;
