@@ -3,6 +3,9 @@
 //!
 //! [`write_atomic`] writes a hidden temporary file beside the target, syncs it and renames
 //! it over the target, so the target is either the old file or the complete new one.
+//! Targets that are not regular files (`/dev/null`, `/dev/stdout`, a pipe) are written
+//! in place: renaming over them would replace the device with a plain file. A symbolic
+//! link is followed, so the link stays and the file it names gets the new content.
 //! The format writers stream into any `Write` and validate their input first
 //! (matching lengths, indices in range) so a bad call is an `InvalidInput` error, not a
 //! corrupt file. Cost: O(output size), one 64 KiB buffer.
@@ -49,7 +52,9 @@ impl Drop for TempGuard {
 /// Writes `path` atomically: `f` writes into a buffered hidden temporary file in the
 /// same directory (`.<name>.<pid>.tmp`), which is flushed, `sync_all`ed and renamed over
 /// `path`. On any error (or panic in `f`) the temporary file is removed and an existing
-/// `path` is left untouched.
+/// `path` is left untouched. A `path` that exists and is not a regular file or a
+/// directory (a device, a pipe, a socket) is opened and written directly, without the
+/// atomicity; a symbolic link is resolved first.
 pub fn write_atomic(
     path: &Path,
     f: impl FnOnce(&mut dyn Write) -> io::Result<()>,
@@ -58,6 +63,24 @@ pub fn write_atomic(
         path: path.to_path_buf(),
         source,
     };
+    let resolved;
+    let mut path = path;
+    if let Ok(meta) = fs::metadata(path) {
+        if !meta.is_file() && !meta.is_dir() {
+            let file = fs::OpenOptions::new()
+                .write(true)
+                .open(path)
+                .map_err(fail)?;
+            let mut w = BufWriter::with_capacity(1 << 16, file);
+            f(&mut w).map_err(fail)?;
+            w.flush().map_err(fail)?;
+            return Ok(());
+        }
+        if fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink()) {
+            resolved = fs::canonicalize(path).map_err(fail)?;
+            path = &resolved;
+        }
+    }
     let name = path.file_name().ok_or_else(|| {
         fail(io::Error::new(
             io::ErrorKind::InvalidInput,
@@ -307,6 +330,61 @@ mod tests {
         assert!(String::from_utf8(out)
             .unwrap()
             .contains("v 0.30000000000000004 0 0\n"));
+    }
+
+    fn scratch_dir(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("vsaqem-{name}-{}", std::process::id()));
+        let _ = fs::remove_dir_all(&dir);
+        fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn a_symlink_target_keeps_the_link_and_gets_the_content() {
+        let dir = scratch_dir("symlink");
+        let real = dir.join("real.txt");
+        fs::write(&real, "old").unwrap();
+        let link = dir.join("link.txt");
+        std::os::unix::fs::symlink(&real, &link).unwrap();
+        write_atomic(&link, |w| w.write_all(b"new")).unwrap();
+        assert!(fs::symlink_metadata(&link)
+            .unwrap()
+            .file_type()
+            .is_symlink());
+        assert_eq!(fs::read_to_string(&real).unwrap(), "new");
+        fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// A pipe stands in for `/dev/null` and `/dev/stdout`: renaming a file over it
+    /// would turn the special file into a plain one (as root, `/dev/null` itself).
+    #[cfg(unix)]
+    #[test]
+    fn a_pipe_is_written_in_place_not_replaced() {
+        use std::io::Read;
+        use std::os::unix::fs::FileTypeExt;
+        let dir = scratch_dir("fifo");
+        let fifo = dir.join("out.ply");
+        let made = std::process::Command::new("mkfifo").arg(&fifo).status();
+        if !made.is_ok_and(|s| s.success()) {
+            eprintln!("skipped: mkfifo is not available");
+            return;
+        }
+        let reader = {
+            let fifo = fifo.clone();
+            std::thread::spawn(move || {
+                let mut s = String::new();
+                File::open(fifo).unwrap().read_to_string(&mut s).unwrap();
+                s
+            })
+        };
+        write_atomic(&fifo, |w| w.write_all(b"through the pipe")).unwrap();
+        // Checked before joining: had the pipe been replaced, the reader would wait forever.
+        assert!(fs::symlink_metadata(&fifo).unwrap().file_type().is_fifo());
+        let leftovers = fs::read_dir(&dir).unwrap().count();
+        assert_eq!(leftovers, 1, "no temporary file beside the pipe");
+        assert_eq!(reader.join().unwrap(), "through the pipe");
+        fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]
