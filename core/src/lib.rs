@@ -57,6 +57,7 @@ pub use progress::{Flow, Progress, Silent, Stage};
 pub use quadric::Planes;
 pub use select::SelectStats;
 pub use validate::Bounds;
+// (SelectionProblem is defined below.)
 
 /// Statistics of a run, per stage.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -288,56 +289,12 @@ fn mesh_round<'a>(
     progress: &mut dyn Progress,
 ) -> Result<(Mesh<'a>, MeshingStats, &'a [u32])> {
     let gens = c.generators;
-    let labels = c.labels;
     arena.scratch(|s| {
-        progress::tick(progress, Stage::Candidates, 0, 1)?;
-        let (rep, merged) = candidates::try_merge_in(s, gens, diag)?;
-        let members = candidates::try_members_in(s, labels, rep)?;
-        let cand = candidates::try_candidates_in(s, nb, labels, rep, merged, &members, gens, diag)?;
-        progress::tick(progress, Stage::Candidates, 1, 1)?;
-        progress::tick(progress, Stage::Scoring, 0, 1)?;
-        let sp = score::ScoreParams {
-            epsilon: params.epsilon,
-            alpha_scale: params.alpha_scale,
-            fitting: params.fitting_weight,
-            coverage: params.coverage_weight,
-        };
-        let scores = score::try_scores_in(s, points, &members, &cand, gens, nb.spacing, diag, &sp)?;
-        progress::tick(progress, Stage::Scoring, 1, 1)?;
-        // Constraints: candidate edges (0 or 2 facets) and fold groups (at most one
-        // facet per 45-degree wedge around an edge), ids E.. for the groups.
-        let groups = candidates::try_fold_groups_in(s, &cand, gens)?;
-        let ne = cand.edges.len();
+        let p = problem_in(s, points, nb, diag, c, params, progress)?;
+        let (cand, members, scores, groups) = (p.cand, p.members, p.scores, p.fold_groups);
         let nf = cand.facets.len();
-        // Edges may end with one facet at `border_penalty`; groups hold at most one.
-        let masks = s.try_alloc_slice::<u8>(ne + groups.count as usize, select::MASK_BORDER)?;
-        for m in masks[ne..].iter_mut() {
-            *m = select::MASK_AT_MOST_ONE;
-        }
-        let penalty = s.try_alloc_slice::<f32>(masks.len(), 0.0)?;
-        for p in penalty[..ne].iter_mut() {
-            *p = params.border_penalty;
-        }
-        let cons = s.try_alloc_slice::<[u32; 6]>(nf, [u32::MAX; 6])?;
-        for f in 0..nf {
-            let e = cand.facet_edges[f];
-            let g = groups.facet_groups[f];
-            cons[f][..3].copy_from_slice(&e);
-            let mut w = 3;
-            for k in 0..3 {
-                if g[k] != u32::MAX {
-                    cons[f][w] = ne as u32 + g[k];
-                    w += 1;
-                }
-            }
-        }
         progress::tick(progress, Stage::Selection, 0, nf as u64)?;
-        let input = select::SelectInput {
-            edge_mask: Some(masks),
-            edge_penalty: Some(penalty),
-            node_limit: params.node_limit,
-            ..select::SelectInput::new(cons, scores.score, masks.len())
-        };
+        let input = p.selection.input(params.node_limit);
         let mut cancelled = false;
         let (selected, sel) = select::try_select_in(arena, &input, &mut |done, total| {
             cancelled = progress::tick(progress, Stage::Selection, done, total).is_err();
@@ -379,7 +336,7 @@ fn mesh_round<'a>(
             MeshingStats {
                 candidate_edges: cand.edges.len() as u32,
                 candidate_facets: cand.facets.len() as u32,
-                fold_groups: groups.count,
+                fold_groups: groups,
                 degenerate_facets: cand.degenerate,
                 merged_generators: cand.merged,
                 mean_supports: scores.mean_supports,
@@ -389,6 +346,130 @@ fn mesh_round<'a>(
             },
             uncovered,
         ))
+    })
+}
+
+/// The facet-selection problem of one meshing round and what it was built from.
+struct Problem<'s> {
+    cand: candidates::Candidates<'s>,
+    members: candidates::Members<'s>,
+    scores: score::Scores<'s>,
+    fold_groups: u32,
+    selection: SelectionProblem<'s>,
+}
+
+/// Candidates, scores, fold groups and the selection constraints (DESIGN steps
+/// 8-10) for clusters `c`, allocated from `s`.
+fn problem_in<'s, 'b, A: Alloc<'b>>(
+    s: &'s A,
+    points: &[V3],
+    nb: &Neighbours,
+    diag: f32,
+    c: &Clusters,
+    params: &Params,
+    progress: &mut dyn Progress,
+) -> Result<Problem<'s>> {
+    let gens = c.generators;
+    progress::tick(progress, Stage::Candidates, 0, 1)?;
+    let (rep, merged) = candidates::try_merge_in(s, gens, diag)?;
+    let members = candidates::try_members_in(s, c.labels, rep)?;
+    let cand = candidates::try_candidates_in(s, nb, c.labels, rep, merged, &members, gens, diag)?;
+    progress::tick(progress, Stage::Candidates, 1, 1)?;
+    progress::tick(progress, Stage::Scoring, 0, 1)?;
+    let sp = score::ScoreParams {
+        epsilon: params.epsilon,
+        alpha_scale: params.alpha_scale,
+        fitting: params.fitting_weight,
+        coverage: params.coverage_weight,
+    };
+    let scores = score::try_scores_in(s, points, &members, &cand, gens, nb.spacing, diag, &sp)?;
+    progress::tick(progress, Stage::Scoring, 1, 1)?;
+    // Constraints: candidate edges (0 or 2 facets) and fold groups (at most one
+    // facet per 45-degree wedge around an edge), ids E.. for the groups.
+    let groups = candidates::try_fold_groups_in(s, &cand, gens)?;
+    let ne = cand.edges.len();
+    let nf = cand.facets.len();
+    // Edges may end with one facet at `border_penalty`; groups hold at most one.
+    let masks = s.try_alloc_slice::<u8>(ne + groups.count as usize, select::MASK_BORDER)?;
+    for m in masks[ne..].iter_mut() {
+        *m = select::MASK_AT_MOST_ONE;
+    }
+    let penalties = s.try_alloc_slice::<f32>(masks.len(), 0.0)?;
+    for p in penalties[..ne].iter_mut() {
+        *p = params.border_penalty;
+    }
+    let rows = s.try_alloc_slice::<[u32; 6]>(nf, [u32::MAX; 6])?;
+    for f in 0..nf {
+        rows[f] = select::join(cand.facet_edges[f], groups.facet_groups[f], ne as u32);
+    }
+    Ok(Problem {
+        cand,
+        members,
+        selection: SelectionProblem {
+            rows,
+            scores: scores.score,
+            masks,
+            penalties,
+        },
+        scores,
+        fold_groups: groups.count,
+    })
+}
+
+/// The facet-selection problem (DESIGN step 10) as [`reconstruct`] builds it:
+/// one constraint row per candidate facet (its three edges, then its fold groups),
+/// the facet scores, and each constraint's mask and border penalty.
+#[derive(Clone, Copy, Debug)]
+pub struct SelectionProblem<'a> {
+    /// Constraint ids of each facet ([`select::UNUSED`] in unused slots).
+    pub rows: &'a [[u32; 6]],
+    /// Score of each facet.
+    pub scores: &'a [f32],
+    /// Mask of each constraint (edges first, then fold groups).
+    pub masks: &'a [u8],
+    /// Penalty of each constraint for ending with one facet.
+    pub penalties: &'a [f32],
+}
+
+impl SelectionProblem<'_> {
+    /// The problem as input to [`select::try_select_in`].
+    pub fn input(&self, node_limit: u64) -> select::SelectInput<'_> {
+        select::SelectInput {
+            edge_mask: Some(self.masks),
+            edge_penalty: Some(self.penalties),
+            node_limit,
+            ..select::SelectInput::new(self.rows, self.scores, self.masks.len())
+        }
+    }
+}
+
+/// The selection problem of the first meshing round of [`reconstruct`] for
+/// `clustered` (made by [`cluster`] from the same `points` and `params`), kept in
+/// `arena`; the candidates and scores it is built from live only in a scratch
+/// scope. For oracle tests and for studying the solver on real instances.
+pub fn selection_problem<'a>(
+    arena: &'a Arena,
+    points: &[V3],
+    clustered: &Clustered<'_>,
+    params: &Params,
+) -> Result<SelectionProblem<'a>> {
+    arena.scratch(|s| {
+        let p = problem_in(
+            s,
+            points,
+            &clustered.neighbours,
+            clustered.bounds.diag,
+            &clustered.clusters,
+            params,
+            &mut Silent,
+        )?
+        .selection;
+        Ok(SelectionProblem {
+            rows: arena.try_alloc_copy(p.rows)?,
+            scores: arena.try_alloc_copy(p.scores)?,
+            masks: arena.try_alloc_copy(p.masks)?,
+            penalties: arena.try_alloc_copy(p.penalties)?,
+        })
     })
 }
 
