@@ -30,6 +30,7 @@
 extern crate std;
 
 pub mod arena;
+pub mod border;
 pub mod candidates;
 pub mod cluster;
 pub mod error;
@@ -193,6 +194,8 @@ pub struct MeshingStats {
     pub candidate_facets: u32,
     /// Fold groups (sets of facets of which at most one may be used) (last round).
     pub fold_groups: u32,
+    /// Clusters on the border of the data (see [`Params::border_angle`]) (last round).
+    pub border_clusters: u32,
     /// Facets dropped as degenerate (last round).
     pub degenerate_facets: u32,
     /// Generators merged as coincident (last round).
@@ -240,6 +243,7 @@ pub fn reconstruct<'a>(
             arena,
             points,
             &open.neighbours,
+            &open.planes,
             open.bounds.diag,
             &state.view(),
             params,
@@ -279,10 +283,12 @@ pub fn reconstruct<'a>(
 
 /// One meshing round in a scratch scope; the mesh and the list of clusters it
 /// leaves uncovered stay in the arena.
+#[allow(clippy::too_many_arguments)]
 fn mesh_round<'a>(
     arena: &'a Arena,
     points: &[V3],
     nb: &Neighbours,
+    planes: &Planes,
     diag: f32,
     c: &Clusters,
     params: &Params,
@@ -290,7 +296,7 @@ fn mesh_round<'a>(
 ) -> Result<(Mesh<'a>, MeshingStats, &'a [u32])> {
     let gens = c.generators;
     arena.scratch(|s| {
-        let p = problem_in(s, points, nb, diag, c, params, progress)?;
+        let p = problem_in(s, points, nb, planes, diag, c, params, progress)?;
         let (cand, members, scores, groups) = (p.cand, p.members, p.scores, p.fold_groups);
         let nf = cand.facets.len();
         progress::tick(progress, Stage::Selection, 0, nf as u64)?;
@@ -308,6 +314,8 @@ fn mesh_round<'a>(
             &members,
             selected,
             gens,
+            p.open,
+            p.moved,
             params.max_hole,
             diag,
         )?;
@@ -337,6 +345,7 @@ fn mesh_round<'a>(
                 candidate_edges: cand.edges.len() as u32,
                 candidate_facets: cand.facets.len() as u32,
                 fold_groups: groups,
+                border_clusters: p.open.iter().filter(|&&b| b).count() as u32,
                 degenerate_facets: cand.degenerate,
                 merged_generators: cand.merged,
                 mean_supports: scores.mean_supports,
@@ -355,15 +364,22 @@ struct Problem<'s> {
     members: candidates::Members<'s>,
     scores: score::Scores<'s>,
     fold_groups: u32,
+    /// Per cluster: on the border of the data.
+    open: &'s [bool],
+    /// Per cluster on the border of the data: where its vertex goes when it ends on
+    /// the mesh's boundary (see [`border::try_border_clusters_in`]).
+    moved: &'s [V3],
     selection: SelectionProblem<'s>,
 }
 
 /// Candidates, scores, fold groups and the selection constraints (DESIGN steps
 /// 8-10) for clusters `c`, allocated from `s`.
+#[allow(clippy::too_many_arguments)]
 fn problem_in<'s, 'b, A: Alloc<'b>>(
     s: &'s A,
     points: &[V3],
     nb: &Neighbours,
+    planes: &Planes,
     diag: f32,
     c: &Clusters,
     params: &Params,
@@ -374,6 +390,11 @@ fn problem_in<'s, 'b, A: Alloc<'b>>(
     let (rep, merged) = candidates::try_merge_in(s, gens, diag)?;
     let members = candidates::try_members_in(s, c.labels, rep)?;
     let cand = candidates::try_candidates_in(s, nb, c.labels, rep, merged, &members, gens, diag)?;
+    // Clusters on the border of the data; their vertices move onto it.
+    let moved = s.try_alloc_copy(gens)?;
+    let angle = params.border_angle * (core::f32::consts::PI / 180.0);
+    let open =
+        border::try_border_clusters_in(s, points, &members, planes, &cand, gens, angle, moved)?;
     progress::tick(progress, Stage::Candidates, 1, 1)?;
     progress::tick(progress, Stage::Scoring, 0, 1)?;
     let sp = score::ScoreParams {
@@ -389,14 +410,18 @@ fn problem_in<'s, 'b, A: Alloc<'b>>(
     let groups = candidates::try_fold_groups_in(s, &cand, gens)?;
     let ne = cand.edges.len();
     let nf = cand.facets.len();
-    // Edges may end with one facet at `border_penalty`; groups hold at most one.
+    // Edges may end with one facet at `border_penalty`, free between two clusters
+    // on the border of the data; groups hold at most one.
     let masks = s.try_alloc_slice::<u8>(ne + groups.count as usize, select::MASK_BORDER)?;
     for m in masks[ne..].iter_mut() {
         *m = select::MASK_AT_MOST_ONE;
     }
     let penalties = s.try_alloc_slice::<f32>(masks.len(), 0.0)?;
-    for p in penalties[..ne].iter_mut() {
-        *p = params.border_penalty;
+    let on_border = |j: u32| open.get(j as usize).copied().unwrap_or(false);
+    for (p, e) in penalties[..ne].iter_mut().zip(cand.edges) {
+        if !(on_border(e[0]) && on_border(e[1])) {
+            *p = params.border_penalty;
+        }
     }
     let rows = s.try_alloc_slice::<[u32; 6]>(nf, [u32::MAX; 6])?;
     for f in 0..nf {
@@ -413,6 +438,8 @@ fn problem_in<'s, 'b, A: Alloc<'b>>(
         },
         scores,
         fold_groups: groups.count,
+        open,
+        moved,
     })
 }
 
@@ -458,6 +485,7 @@ pub fn selection_problem<'a>(
             s,
             points,
             &clustered.neighbours,
+            &clustered.planes,
             clustered.bounds.diag,
             &clustered.clusters,
             params,

@@ -195,6 +195,7 @@ impl Report<'_> {
              candidates {} edges, {} facets ({} degenerate, {} fold groups, {} generators merged), {:.1} supports per facet\n\
              selection  {solver}, {} independent parts (largest {} facets), {} facets fixed by propagation\n\
              mesh       {} vertices, {} faces, {} components, {closed}\n\
+             border     {} clusters on the border of the data, {} boundary loops kept open along it\n\
              repair     {} holes closed with {} faces, {} left open; {} orientation clashes cut out; {} vertices split\n\
              time       {}\n\
              memory     arena peak {} bytes ({:.1} bytes/point), {} reserved\n\
@@ -218,6 +219,8 @@ impl Report<'_> {
             mesh.vertices,
             mesh.faces,
             mesh.components,
+            m.border_clusters,
+            mesh.open_loops,
             mesh.holes_filled,
             mesh.filled_faces,
             mesh.holes_left,
@@ -271,6 +274,8 @@ impl Report<'_> {
             .num("components", mesh.components as f64)
             .num("non_orientable_components", mesh.non_orientable as f64)
             .num("split_vertices", mesh.split_vertices as f64)
+            .num("border_clusters", m.border_clusters as f64)
+            .num("open_loops", mesh.open_loops as f64)
             .num("holes_filled", mesh.holes_filled as f64)
             .num("filled_faces", mesh.filled_faces as f64)
             .num("holes_left", mesh.holes_left as f64)
