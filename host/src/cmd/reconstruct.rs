@@ -33,6 +33,11 @@ pub struct MeshArgs {
     /// Close boundary loops of the selection with at most this many edges (0: none).
     #[arg(long, default_value_t = Params::default().max_hole)]
     pub max_hole: u32,
+    /// Border of the data, in degrees: a cluster whose neighbours leave a wider
+    /// angular gap around it is where the data ends; boundary loops along such
+    /// clusters stay open. 360 treats every input as closed.
+    #[arg(long, default_value_t = Params::default().border_angle)]
+    pub border_angle: f32,
     /// Branch-and-bound node limit of the facet selection.
     #[arg(long, default_value_t = Params::default().node_limit)]
     pub node_limit: u64,
@@ -72,6 +77,7 @@ impl Cmd {
             node_limit: self.mesh.node_limit,
             border_penalty: self.mesh.border_penalty,
             max_hole: self.mesh.max_hole,
+            border_angle: self.mesh.border_angle,
             refine_rounds: self.mesh.refine_rounds,
             ..self.cluster.params()
         }
