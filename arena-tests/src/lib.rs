@@ -32,6 +32,44 @@ pub fn shared_clouds() -> Option<Vec<PathBuf>> {
     Some(v)
 }
 
+/// The points of a binary little-endian PLY with float `x y z` (the format of
+/// the shared clouds), centred and scaled into `[-1, 1]^3` as the host does.
+pub fn read_cloud(path: &std::path::Path) -> Vec<V3> {
+    let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let h = bytes
+        .windows(11)
+        .position(|w| w == b"end_header\n")
+        .unwrap_or_else(|| panic!("{}: no PLY header", path.display()))
+        + 11;
+    let raw: Vec<f32> = bytes[h..]
+        .chunks_exact(4)
+        .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
+        .collect();
+    let mut pts: Vec<V3> = raw.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+    let mut lo = [f32::INFINITY; 3];
+    let mut hi = [f32::NEG_INFINITY; 3];
+    for p in &pts {
+        for a in 0..3 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+    }
+    let s = (0..3).map(|a| hi[a] - lo[a]).fold(0.0f32, f32::max) / 2.0;
+    for p in &mut pts {
+        for a in 0..3 {
+            p[a] = (p[a] - 0.5 * (lo[a] + hi[a])) / s;
+        }
+    }
+    pts
+}
+
+/// The file stem of `path` (a cloud's name in reports).
+pub fn stem(path: &std::path::Path) -> String {
+    path.file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default()
+}
+
 /// Topological facts of a triangle mesh, computed without trusting the producer.
 #[derive(Debug, Default, Clone, PartialEq)]
 pub struct Topology {

@@ -1,6 +1,6 @@
 //! Output invariants of `reconstruct` on generated shapes and the shared clouds.
 
-use arena_tests::{cloud, distance_to_mesh, shared_clouds, signed_volume, topology};
+use arena_tests::{cloud, distance_to_mesh, read_cloud, shared_clouds, signed_volume, topology};
 use std::mem::MaybeUninit;
 use vsaqem_core::sample::Shape;
 use vsaqem_core::{reconstruct, reconstruct_bytes, Arena, Params, Silent, V3};
@@ -111,32 +111,7 @@ fn a_box_keeps_its_corners_and_edges() {
 fn shared_clouds_give_clean_manifolds() {
     let Some(files) = shared_clouds() else { return };
     for path in files {
-        let bytes = std::fs::read(&path).unwrap();
-        let h = bytes
-            .windows(11)
-            .position(|w| w == b"end_header\n")
-            .unwrap()
-            + 11;
-        let raw: Vec<f32> = bytes[h..]
-            .chunks_exact(4)
-            .map(|c| f32::from_le_bytes(c.try_into().unwrap()))
-            .collect();
-        let mut pts: Vec<V3> = raw.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
-        // Normalise as the host does.
-        let mut lo = [f32::INFINITY; 3];
-        let mut hi = [f32::NEG_INFINITY; 3];
-        for p in &pts {
-            for a in 0..3 {
-                lo[a] = lo[a].min(p[a]);
-                hi[a] = hi[a].max(p[a]);
-            }
-        }
-        let s = (0..3).map(|a| hi[a] - lo[a]).fold(0.0f32, f32::max) / 2.0;
-        for p in &mut pts {
-            for a in 0..3 {
-                p[a] = (p[a] - 0.5 * (lo[a] + hi[a])) / s;
-            }
-        }
+        let pts = read_cloud(&path);
         for clusters in [250, 500, 1000, 2000] {
             let (v, t, stats) = run(&pts, clusters);
             let topo = topology(&v, &t);
