@@ -47,6 +47,15 @@ impl fmt::Display for Exhausted {
     }
 }
 
+/// Bytes a request for `count` values of `T` can take from an [`Arena`], at
+/// either end, alignment padding included: an upper bound for memory budgets
+/// (saturating instead of overflowing).
+pub fn padded_bytes<T>(count: usize) -> usize {
+    count
+        .saturating_mul(size_of::<T>())
+        .saturating_add(align_of::<T>() - 1)
+}
+
 /// Bump arena over `&'buf mut [MaybeUninit<u8>]`. See the module docs.
 ///
 /// Not `Sync`: offsets live in `Cell`s, so allocation needs only `&self` and
@@ -61,6 +70,11 @@ pub struct Arena<'buf> {
     /// Depth of the innermost live scratch scope (0: none).
     depth: Cell<u32>,
     peak: Cell<usize>,
+    /// `used()` may not exceed this (`usize::MAX`: no ceiling). See
+    /// [`Arena::with_ceiling`].
+    ceiling: Cell<usize>,
+    /// A request failed while the ceiling was at or below the buffer's end.
+    ceiling_hit: Cell<bool>,
     _buf: PhantomData<&'buf mut [MaybeUninit<u8>]>,
 }
 
@@ -78,6 +92,8 @@ impl<'buf> Arena<'buf> {
             back: Cell::new(len),
             depth: Cell::new(0),
             peak: Cell::new(0),
+            ceiling: Cell::new(usize::MAX),
+            ceiling_hit: Cell::new(false),
             _buf: PhantomData,
         }
     }
@@ -97,9 +113,45 @@ impl<'buf> Arena<'buf> {
         self.peak.get()
     }
 
-    /// Bytes between the two ends (an upper bound on the next allocation).
+    /// Bytes the next allocation may take (padding included): the free space
+    /// between the two ends, or less under a ceiling ([`Arena::with_ceiling`]).
     pub fn available(&self) -> usize {
+        self.room()
+            .min(self.ceiling.get().saturating_sub(self.used()))
+    }
+
+    /// Bytes between the two ends.
+    fn room(&self) -> usize {
         self.back.get() - self.front.get()
+    }
+
+    /// The error for a request of `need` bytes that does not fit, noting when the
+    /// ceiling, not the buffer's end, was the limit (or both, at the same place).
+    fn refuse(&self, need: usize) -> Exhausted {
+        if self.ceiling.get().saturating_sub(self.used()) <= self.room() {
+            self.ceiling_hit.set(true);
+        }
+        Exhausted {
+            requested: need,
+            available: self.available(),
+        }
+    }
+
+    /// Run `f` with `used()` capped at `ceiling` bytes (or at an enclosing
+    /// ceiling, when lower): a request beyond it fails with [`Exhausted`] as if
+    /// the buffer ended there, so a stage can be held to a budget of its own
+    /// inside a larger buffer. Returns `f`'s result and whether some request
+    /// failed while this ceiling was at or below the buffer's end: then the
+    /// ceiling, not the buffer, was too small.
+    pub fn with_ceiling<R>(&self, ceiling: usize, f: impl FnOnce() -> R) -> (R, bool) {
+        let (outer, outer_hit) = (self.ceiling.get(), self.ceiling_hit.get());
+        self.ceiling.set(outer.min(ceiling));
+        self.ceiling_hit.set(false);
+        let out = f();
+        let hit = self.ceiling_hit.get();
+        self.ceiling.set(outer);
+        self.ceiling_hit.set(outer_hit || hit);
+        (out, hit)
     }
 
     fn note_peak(&self) {
@@ -123,12 +175,8 @@ impl<'buf> Arena<'buf> {
         let addr = self.base.as_ptr() as usize + front;
         let pad = addr.wrapping_neg() & (align_of::<T>() - 1);
         let need = bytes.saturating_add(pad);
-        let available = self.available();
-        if need > available {
-            return Err(Exhausted {
-                requested: need,
-                available,
-            });
+        if need > self.available() {
+            return Err(self.refuse(need));
         }
         self.front.set(front + need);
         self.note_peak();
@@ -139,21 +187,14 @@ impl<'buf> Arena<'buf> {
     fn reserve_back<T>(&self, count: usize) -> Result<usize, Exhausted> {
         let bytes = Self::byte_size::<T>(count)?;
         let back = self.back.get();
-        let available = self.available();
-        if bytes > available {
-            return Err(Exhausted {
-                requested: bytes,
-                available,
-            });
+        if bytes > self.available() {
+            return Err(self.refuse(bytes));
         }
         let start = back - bytes;
         let addr = self.base.as_ptr() as usize + start;
         let aligned = start - (addr & (align_of::<T>() - 1));
-        if aligned < self.front.get() {
-            return Err(Exhausted {
-                requested: back - aligned,
-                available,
-            });
+        if back - aligned > self.available() {
+            return Err(self.refuse(back - aligned));
         }
         self.back.set(aligned);
         self.note_peak();
@@ -225,6 +266,8 @@ impl<'buf> Arena<'buf> {
         self.front.set(0);
         self.back.set(self.len);
         self.depth.set(0);
+        self.ceiling.set(usize::MAX);
+        self.ceiling_hit.set(false);
     }
 }
 
@@ -435,6 +478,47 @@ mod tests {
         assert!(a.try_alloc_slice::<u8>(1, 0).is_err());
         a.reset();
         assert!(a.try_alloc_slice::<u8>(32, 0).is_ok());
+    }
+
+    #[test]
+    fn a_ceiling_caps_use_and_says_when_it_was_the_reason() {
+        let mut b = buf(256);
+        let a = Arena::new(&mut b[..]);
+        let _ = a.try_alloc_slice::<u8>(16, 0).unwrap();
+        let ((), hit) = a.with_ceiling(64, || {
+            assert_eq!(a.available(), 48);
+            assert!(a.try_alloc_slice::<u8>(40, 0).is_ok());
+            a.scratch(|s| {
+                let e = s.try_alloc_slice::<u8>(9, 0).unwrap_err();
+                assert_eq!(e.available, 8);
+                assert!(s.try_alloc_slice::<u8>(8, 0).is_ok());
+            });
+            assert!(a.used() <= 64);
+        });
+        assert!(hit, "the ceiling, not the buffer, refused the request");
+        // Too big for the buffer as well: still the ceiling's refusal, as it is
+        // the lower limit.
+        let ((), hit) = a.with_ceiling(a.used() + 8, || {
+            assert!(a.try_alloc_slice::<u8>(1000, 0).is_err());
+        });
+        assert!(hit);
+        // Lifted again: the buffer's own end applies.
+        assert!(a.try_alloc_slice::<u8>(100, 0).is_ok());
+        let ((), hit) = a.with_ceiling(usize::MAX, || {
+            assert!(a.try_alloc_slice::<u8>(200, 0).is_err());
+        });
+        assert!(!hit, "the buffer itself was too small");
+        // A ceiling exactly at the buffer's end is the ceiling's refusal.
+        let ((), hit) = a.with_ceiling(a.capacity(), || {
+            assert!(a.try_alloc_slice::<u8>(200, 0).is_err());
+        });
+        assert!(hit);
+        // An inner ceiling above an outer one does not lift it.
+        let ((), _) = a.with_ceiling(a.used() + 8, || {
+            let (r, inner_hit) =
+                a.with_ceiling(usize::MAX, || a.try_alloc_slice::<u8>(9, 0).is_err());
+            assert!(r && inner_hit);
+        });
     }
 
     #[test]
