@@ -9,7 +9,7 @@ use crate::progress::StageClock;
 use clap::Args;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
-use vsaqem_core::{Error, Params, Reconstruction};
+use vsaqem_core::{Params, Reconstruction};
 
 /// Meshing parameters; defaults are `vsaqem_core::Params::default()`.
 #[derive(Args, Debug, Clone)]
@@ -85,45 +85,30 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
     let mut clock = StageClock::new(!cmd.quiet);
     let input = read_input(&cmd.input, &mut clock)?;
     let params = cmd.params();
-    let mut bytes = vsaqem_core::reconstruct_bytes(input.points.len(), &params);
-    loop {
-        let mut buf = arena_buffer(bytes);
-        let arena = vsaqem_core::Arena::new(&mut buf);
-        let out = vsaqem_core::reconstruct(
-            &arena,
-            &input.points,
-            input.normals.as_deref(),
-            &params,
-            &mut clock,
-        );
-        clock.finish();
-        let out = match out {
-            Err(Error::Exhausted(e)) if bytes < usize::MAX / 4 => {
-                // The meshing part of the budget is an estimate: retry bigger.
-                eprintln!(
-                    "note: arena of {bytes} bytes was too small ({e}); retrying with {}",
-                    bytes * 2
-                );
-                bytes *= 2;
-                clock = StageClock::new(!cmd.quiet);
-                continue;
-            }
-            other => other.map_err(|e| format!("{}: {e}", input.name))?,
-        };
-        let t = Instant::now();
-        write_output(&cmd.output, format, &input, &out)?;
-        clock.record("write", t.elapsed());
-        let report = Report {
-            input: &input,
-            out: &out,
-            params: &params,
-            clock: &clock,
-            arena_bytes: bytes,
-            output: &cmd.output,
-        };
-        crate::cmd::publish(&report.text(), cmd.report.as_deref(), || report.json())?;
-        return Ok(());
-    }
+    let bytes = vsaqem_core::arena_bytes(input.points.len(), &params);
+    let mut buf = arena_buffer(bytes);
+    let arena = vsaqem_core::Arena::new(&mut buf);
+    let out = vsaqem_core::reconstruct(
+        &arena,
+        &input.points,
+        input.normals.as_deref(),
+        &params,
+        &mut clock,
+    );
+    clock.finish();
+    let out = out.map_err(|e| format!("{}: {e}", input.name))?;
+    let t = Instant::now();
+    write_output(&cmd.output, format, &input, &out)?;
+    clock.record("write", t.elapsed());
+    let report = Report {
+        input: &input,
+        out: &out,
+        params: &params,
+        clock: &clock,
+        arena_bytes: bytes,
+        output: &cmd.output,
+    };
+    crate::cmd::publish(&report.text(), cmd.report.as_deref(), || report.json())
 }
 
 fn write_output(
