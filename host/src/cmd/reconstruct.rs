@@ -1,7 +1,7 @@
 //! `vsaqem reconstruct`: point cloud to mesh (PLY, OBJ or OFF by extension).
 
-use crate::cmd::arena_buffer;
 use crate::cmd::cluster::{read_input, ClusterArgs, InputArgs};
+use crate::cmd::{arena_buffer, MemoryArgs};
 use crate::input::Prepared;
 use crate::io::{write_atomic, write_mesh, MeshFormat};
 use crate::json;
@@ -9,7 +9,7 @@ use crate::progress::StageClock;
 use clap::Args;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
-use vsaqem_core::{Params, Reconstruction};
+use vsaqem_core::{Error, Params, Reconstruction};
 
 /// Meshing parameters; defaults are `vsaqem_core::Params::default()`.
 #[derive(Args, Debug, Clone)]
@@ -39,6 +39,11 @@ pub struct MeshArgs {
     /// Refinement rounds where parts of the data are left out of the mesh.
     #[arg(long, default_value_t = Params::default().refine_rounds)]
     pub refine_rounds: u32,
+    /// Working memory of a meshing round, in bytes per cluster of the cap
+    /// (0: 470 times the square root of --knn, 1628 at k = 12). A candidate graph
+    /// denser than that fails; raise it for clouds with few points per cluster.
+    #[arg(long, default_value_t = Params::default().mesh_bytes_per_cluster)]
+    pub mesh_bytes_per_cluster: u32,
 }
 
 /// `vsaqem reconstruct`.
@@ -50,6 +55,8 @@ pub struct Cmd {
     pub cluster: ClusterArgs,
     #[command(flatten)]
     pub mesh: MeshArgs,
+    #[command(flatten)]
+    pub memory: MemoryArgs,
     /// Output mesh: .ply, .obj or .off.
     #[arg(short, long, default_value = "mesh.ply")]
     pub output: PathBuf,
@@ -73,6 +80,7 @@ impl Cmd {
             border_penalty: self.mesh.border_penalty,
             max_hole: self.mesh.max_hole,
             refine_rounds: self.mesh.refine_rounds,
+            mesh_bytes_per_cluster: self.mesh.mesh_bytes_per_cluster,
             ..self.cluster.params()
         }
     }
@@ -85,7 +93,10 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
     let mut clock = StageClock::new(!cmd.quiet);
     let input = read_input(&cmd.input, &mut clock)?;
     let params = cmd.params();
-    let bytes = vsaqem_core::arena_bytes(input.points.len(), &params);
+    let n = input.points.len();
+    let bytes = cmd
+        .memory
+        .arena_size(vsaqem_core::arena_bytes(n, &params), n)?;
     let mut buf = arena_buffer(bytes);
     let arena = vsaqem_core::Arena::new(&mut buf);
     let out = vsaqem_core::reconstruct(
@@ -96,7 +107,14 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
         &mut clock,
     );
     clock.finish();
-    let out = out.map_err(|e| format!("{}: {e}", input.name))?;
+    let out = out.map_err(|e| match e {
+        Error::MeshCapacity { .. } => format!(
+            "{}: {e} (--mesh-bytes-per-cluster, now {})",
+            input.name,
+            params.mesh_capacity_per_cluster()
+        ),
+        e => format!("{}: {e}", input.name),
+    })?;
     let t = Instant::now();
     write_output(&cmd.output, format, &input, &out)?;
     clock.record("write", t.elapsed());
