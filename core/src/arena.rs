@@ -16,6 +16,14 @@
 //! (alignment padding included), so the memory tests can compare them with the
 //! predicted budget.
 //!
+//! Every allocation starts a multiple of [`GRANULE`] (8) bytes from the start and
+//! takes a multiple of it, so no type of alignment up to 8 ever needs padding, and
+//! `used()` and `peak()` depend only on the sequence of requests, not on where the
+//! buffer lies or how long it is: a run that peaked at `P` bytes fits in any
+//! buffer of `P` bytes that starts on an 8-byte boundary (as heap allocations
+//! do). A buffer that does not loses up to 7 bytes at its start; its last
+//! `len % 8` bytes are never used.
+//!
 //! This is the one module of the crate that uses `unsafe`: turning the raw buffer
 //! into typed, disjoint `&mut [T]` slices. Every block states why it is sound.
 #![allow(unsafe_code)]
@@ -47,13 +55,24 @@ impl fmt::Display for Exhausted {
     }
 }
 
-/// Bytes a request for `count` values of `T` can take from an [`Arena`], at
-/// either end, alignment padding included: an upper bound for memory budgets
-/// (saturating instead of overflowing).
+/// Every allocation starts on, and takes, a multiple of this many bytes.
+pub const GRANULE: usize = 8;
+
+/// `bytes` rounded up to a multiple of [`GRANULE`] (`None` on overflow).
+fn granules(bytes: usize) -> Option<usize> {
+    bytes.checked_add(GRANULE - 1).map(|b| b & !(GRANULE - 1))
+}
+
+/// Bytes a request for `count` values of `T` takes from an [`Arena`], at either
+/// end: its size rounded up to the granule, plus alignment padding for types
+/// aligned to more than 8 bytes. Exact for the types core uses; saturates instead
+/// of overflowing, for budgets.
 pub fn padded_bytes<T>(count: usize) -> usize {
     count
-        .saturating_mul(size_of::<T>())
-        .saturating_add(align_of::<T>() - 1)
+        .checked_mul(size_of::<T>())
+        .and_then(granules)
+        .unwrap_or(usize::MAX)
+        .saturating_add(align_of::<T>().saturating_sub(GRANULE))
 }
 
 /// Bump arena over `&'buf mut [MaybeUninit<u8>]`. See the module docs.
@@ -81,8 +100,12 @@ pub struct Arena<'buf> {
 impl<'buf> Arena<'buf> {
     /// An empty arena over `buf`. The arena borrows the buffer mutably for its whole
     /// life; dropping the arena gives the buffer back for reuse.
+    /// The part of the buffer used starts at its first 8-byte boundary and ends at
+    /// a multiple of 8 bytes from there (see the module docs).
     pub fn new(buf: &'buf mut [MaybeUninit<u8>]) -> Self {
-        let len = buf.len();
+        let skip = ((buf.as_ptr() as usize).wrapping_neg() & (GRANULE - 1)).min(buf.len());
+        let buf = &mut buf[skip..];
+        let len = buf.len() & !(GRANULE - 1);
         // A slice pointer is never null (it is dangling but aligned when empty).
         let base = NonNull::from(buf).cast::<u8>();
         Arena {
@@ -98,7 +121,7 @@ impl<'buf> Arena<'buf> {
         }
     }
 
-    /// Total size of the buffer in bytes.
+    /// Usable size of the buffer in bytes (see [`Arena::new`]).
     pub fn capacity(&self) -> usize {
         self.len
     }
@@ -161,14 +184,20 @@ impl<'buf> Arena<'buf> {
         }
     }
 
+    /// The bytes `count` values of `T` take: a multiple of the granule.
     fn byte_size<T>(count: usize) -> Result<usize, Exhausted> {
-        count.checked_mul(size_of::<T>()).ok_or(Exhausted {
-            requested: usize::MAX,
-            available: 0,
-        })
+        count
+            .checked_mul(size_of::<T>())
+            .and_then(granules)
+            .ok_or(Exhausted {
+                requested: usize::MAX,
+                available: 0,
+            })
     }
 
     /// Reserve room for `count` values of `T` at the front. Returns the byte offset.
+    /// Both ends stay on granule boundaries; padding is needed only for types
+    /// aligned to more than the granule.
     fn reserve_front<T>(&self, count: usize) -> Result<usize, Exhausted> {
         let bytes = Self::byte_size::<T>(count)?;
         let front = self.front.get();
@@ -380,19 +409,23 @@ impl<'buf> Alloc<'buf> for Scratch<'_, 'buf> {
 mod tests {
     use super::*;
 
-    fn buf(n: usize) -> [MaybeUninit<u8>; 256] {
+    /// 256 bytes on an 8-byte boundary.
+    #[repr(align(8))]
+    struct Buf([MaybeUninit<u8>; 256]);
+
+    fn buf(n: usize) -> Buf {
         assert!(n <= 256);
-        [MaybeUninit::uninit(); 256]
+        Buf([MaybeUninit::uninit(); 256])
     }
 
     #[test]
     fn exhaustion_is_an_error_with_exact_numbers() {
         let mut b = buf(256);
-        let a = Arena::new(&mut b[..64]);
+        let a = Arena::new(&mut b.0[..64]);
         let x = a.try_alloc_slice::<u32>(10, 7).unwrap();
         assert_eq!(x, &[7; 10]);
         let used = a.used();
-        assert!((40..=43).contains(&used), "{used}");
+        assert_eq!(used, 40);
         let e = a.try_alloc_slice::<u32>(100, 0).unwrap_err();
         assert_eq!(e.available, 64 - used);
         assert!(e.requested >= 400);
@@ -404,7 +437,7 @@ mod tests {
     #[test]
     fn size_overflow_is_an_error_not_a_panic() {
         let mut b = buf(256);
-        let a = Arena::new(&mut b[..]);
+        let a = Arena::new(&mut b.0[..]);
         let e = a.try_alloc_slice::<u64>(usize::MAX / 2, 0).unwrap_err();
         assert_eq!(e.requested, usize::MAX);
     }
@@ -412,7 +445,7 @@ mod tests {
     #[test]
     fn scratch_is_reclaimed_and_peak_remembers_it() {
         let mut b = buf(256);
-        let a = Arena::new(&mut b[..]);
+        let a = Arena::new(&mut b.0[..]);
         let p = a.try_alloc_slice::<u8>(16, 1).unwrap();
         let before = a.used();
         let s = a.scratch(|s| {
@@ -422,15 +455,16 @@ mod tests {
             t.iter().sum::<u64>() + q.len() as u64
         });
         assert_eq!(s, 28);
-        assert_eq!(a.used(), before + 4);
-        assert!(a.peak() >= before + 4 + 64);
+        // 4 bytes take a granule.
+        assert_eq!(a.used(), before + 8);
+        assert_eq!(a.peak(), before + 8 + 64);
         assert_eq!(p, &[1; 16]);
     }
 
     #[test]
     fn values_are_aligned_at_both_ends() {
         let mut b = buf(256);
-        let a = Arena::new(&mut b[..]);
+        let a = Arena::new(&mut b.0[..]);
         let _ = a.try_alloc_slice::<u8>(3, 0).unwrap();
         let x = a.try_alloc_slice::<u64>(2, 0).unwrap();
         assert_eq!(x.as_ptr() as usize % align_of::<u64>(), 0);
@@ -444,7 +478,7 @@ mod tests {
     #[test]
     fn outer_scope_cannot_allocate_while_inner_is_live() {
         let mut b = buf(256);
-        let a = Arena::new(&mut b[..]);
+        let a = Arena::new(&mut b.0[..]);
         a.scratch(|outer| {
             let _keep = outer.try_alloc_slice::<u32>(2, 5).unwrap();
             outer.scratch(|inner| {
@@ -458,11 +492,13 @@ mod tests {
     #[test]
     fn the_ends_never_overlap() {
         let mut b = buf(256);
-        let a = Arena::new(&mut b[..100]);
-        let p = a.try_alloc_slice::<u8>(50, 1).unwrap();
+        // 100 bytes: 96 used (whole granules).
+        let a = Arena::new(&mut b.0[..100]);
+        assert_eq!(a.capacity(), 96);
+        let p = a.try_alloc_slice::<u8>(45, 1).unwrap();
         a.scratch(|s| {
-            assert!(s.try_alloc_slice::<u8>(51, 2).is_err());
-            let t = s.try_alloc_slice::<u8>(50, 2).unwrap();
+            assert!(s.try_alloc_slice::<u8>(49, 2).is_err());
+            let t = s.try_alloc_slice::<u8>(48, 2).unwrap();
             assert_eq!(a.available(), 0);
             assert!(a.try_alloc_slice::<u8>(1, 0).is_err());
             assert!(t.iter().all(|&v| v == 2));
@@ -473,7 +509,7 @@ mod tests {
     #[test]
     fn reset_makes_the_buffer_reusable() {
         let mut b = buf(256);
-        let mut a = Arena::new(&mut b[..32]);
+        let mut a = Arena::new(&mut b.0[..32]);
         assert!(a.try_alloc_slice::<u8>(32, 0).is_ok());
         assert!(a.try_alloc_slice::<u8>(1, 0).is_err());
         a.reset();
@@ -483,7 +519,7 @@ mod tests {
     #[test]
     fn a_ceiling_caps_use_and_says_when_it_was_the_reason() {
         let mut b = buf(256);
-        let a = Arena::new(&mut b[..]);
+        let a = Arena::new(&mut b.0[..]);
         let _ = a.try_alloc_slice::<u8>(16, 0).unwrap();
         let ((), hit) = a.with_ceiling(64, || {
             assert_eq!(a.available(), 48);
@@ -522,9 +558,37 @@ mod tests {
     }
 
     #[test]
+    fn the_peak_depends_on_the_requests_not_on_the_buffer() {
+        let mut b = buf(256);
+        let run = |a: &Arena| -> Result<(), Exhausted> {
+            let _ = a.try_alloc_slice::<u8>(3, 0)?;
+            a.scratch(|s| -> Result<(), Exhausted> {
+                let _ = s.try_alloc_slice::<u32>(5, 0)?;
+                let _ = s.try_alloc_slice::<u64>(2, 0)?;
+                let _ = a.try_alloc_slice::<[f32; 3]>(3, [0.0; 3])?;
+                Ok(())
+            })?;
+            let _ = a.try_alloc_slice::<u16>(7, 0)?;
+            Ok(())
+        };
+        let mut peaks = std::vec::Vec::new();
+        for (start, len) in [(0, 256), (0, 203), (8, 131), (3, 200), (5, 99)] {
+            let a = Arena::new(&mut b.0[start..start + len]);
+            run(&a).unwrap();
+            peaks.push(a.peak());
+        }
+        assert!(peaks.iter().all(|&p| p == peaks[0]), "{peaks:?}");
+        let peak = peaks[0];
+        assert_eq!(peak % GRANULE, 0);
+        // Exactly the peak is enough; a granule less is not.
+        assert!(run(&Arena::new(&mut b.0[8..8 + peak])).is_ok());
+        assert!(run(&Arena::new(&mut b.0[8..8 + peak - 1])).is_err());
+    }
+
+    #[test]
     fn zero_sized_and_empty_requests_work() {
         let mut b = buf(256);
-        let a = Arena::new(&mut b[..0]);
+        let a = Arena::new(&mut b.0[..0]);
         assert_eq!(a.try_alloc_slice::<()>(1000, ()).unwrap().len(), 1000);
         assert_eq!(a.try_alloc_slice::<u32>(0, 0).unwrap().len(), 0);
         assert!(a.try_alloc_slice::<u32>(1, 0).is_err());

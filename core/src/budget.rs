@@ -32,7 +32,7 @@
 //! [`Error::MeshCapacity`](crate::Error::MeshCapacity), whatever the arena's size,
 //! so the output never depends on how much memory the caller happened to give.
 
-use crate::arena::padded_bytes;
+use crate::arena::{padded_bytes, GRANULE};
 use crate::params::{Params, MAX_K};
 use crate::{cluster, knn, quadric};
 
@@ -46,19 +46,32 @@ fn cap_bound(n: usize, params: &Params) -> usize {
         .max(1)
 }
 
+/// A buffer of `bound` usable bytes, whatever its alignment: the arena skips
+/// up to 7 bytes to start on a granule boundary.
+fn buffer_for(bound: usize) -> usize {
+    bound.saturating_add(GRANULE - 1)
+}
+
 /// Arena bytes that are always enough for [`cluster`](crate::cluster()) on `n`
 /// points with `params` (see the module docs).
 pub fn cluster_bytes(n: usize, params: &Params) -> usize {
     let (peak, _) = stages(n, params);
-    peak
+    buffer_for(round_up(peak))
 }
 
 /// Arena bytes that are always enough for [`reconstruct`](crate::reconstruct) on
 /// `n` points with `params`, refinement rounds included: the largest of the
-/// stages' peaks (see the module docs). About 140 bytes per point at k = 12 for
-/// large clouds, plus `mesh_bytes_per_cluster + 36` bytes per cluster of the cap.
-/// Saturates at `usize::MAX` instead of overflowing.
+/// stages' peaks (see the module docs), plus 7 bytes for a buffer that does not
+/// start on an 8-byte boundary. About 140 bytes per point at k = 12 for large
+/// clouds, plus `mesh_bytes_per_cluster` and some 70 bytes per cluster of the
+/// cap. Saturates at `usize::MAX` instead of overflowing.
 pub fn arena_bytes(n: usize, params: &Params) -> usize {
+    buffer_for(reconstruct_bound(n, params))
+}
+
+/// The most [`reconstruct`](crate::reconstruct) uses (a multiple of the
+/// granule): meshing may fill the arena up to here, never beyond.
+pub(crate) fn reconstruct_bound(n: usize, params: &Params) -> usize {
     let (clustering, kept) = stages(n, params);
     let cap = cap_bound(n, params);
     // Refinement keeps one list of uncovered clusters, then runs a clustering
@@ -68,7 +81,13 @@ pub fn arena_bytes(n: usize, params: &Params) -> usize {
     let meshing = kept
         .saturating_add(list)
         .saturating_add(mesh_capacity(n, cap, params));
-    refine.max(meshing)
+    round_up(refine.max(meshing))
+}
+
+fn round_up(bytes: usize) -> usize {
+    bytes
+        .checked_add(GRANULE - 1)
+        .map_or(usize::MAX & !(GRANULE - 1), |b| b & !(GRANULE - 1))
 }
 
 /// Bytes a meshing round may use when clustering holds `cap` clusters at most

@@ -261,7 +261,7 @@ pub fn reconstruct<'a>(
     // budget holds, and the outcome does not depend on the buffer's size.
     let end = arena
         .used()
-        .saturating_add(arena_bytes(points.len(), params));
+        .saturating_add(budget::reconstruct_bound(points.len(), params));
     let (open, mut state) = cluster_stages(arena, points, normals, params, progress)?;
     // Clusters a round leaves without a face, for refinement: one buffer for all
     // rounds, so a round leaves nothing behind but, when it is the last, the mesh.
