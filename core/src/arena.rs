@@ -300,6 +300,54 @@ impl<'buf> Arena<'buf> {
     }
 }
 
+impl fmt::Debug for Arena<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Arena")
+            .field("capacity", &self.capacity())
+            .field("used", &self.used())
+            .field("peak", &self.peak())
+            .finish()
+    }
+}
+
+#[cfg(feature = "bumpalo")]
+impl<'b> Arena<'b> {
+    /// An arena of `bytes` bytes taken from `bump` instead of a caller's slice
+    /// (feature `bumpalo`, for std hosts that manage memory with bumpalo). The
+    /// bump's allocation limit (`Bump::set_allocation_limit`) is honoured: when
+    /// the bump cannot give `bytes` more (the limit counts bumpalo's chunks, which
+    /// round requests up, plus their headers), this is [`Exhausted`] with
+    /// `requested: bytes` and what the limit still allows as `available`, never a
+    /// panic or an abort. The bytes go back when the bump is reset or dropped.
+    ///
+    /// ```
+    /// # use vsaqem_core::{arena_bytes, Arena, Params};
+    /// let bump = bumpalo::Bump::new();
+    /// bump.set_allocation_limit(Some(1 << 20));
+    /// let params = Params::default();
+    /// assert!(Arena::try_from_bump(&bump, arena_bytes(100_000, &params)).is_err());
+    /// assert!(Arena::try_from_bump(&bump, 64 * 1024).is_ok());
+    /// ```
+    pub fn try_from_bump(bump: &'b bumpalo::Bump, bytes: usize) -> Result<Self, Exhausted> {
+        let refused = || Exhausted {
+            requested: bytes,
+            available: bump
+                .allocation_limit()
+                .map_or(0, |limit| limit.saturating_sub(bump.allocated_bytes())),
+        };
+        let layout = core::alloc::Layout::from_size_align(bytes, GRANULE).map_err(|_| refused())?;
+        let ptr = bump.try_alloc_layout(layout).map_err(|_| refused())?;
+        // SAFETY: `try_alloc_layout` returned a fresh allocation of `bytes` bytes
+        // that bumpalo hands to no one else and frees only on `reset` or drop, both
+        // of which need the bump mutably, so it stays valid and unaliased while
+        // `bump` is borrowed for 'b. `MaybeUninit<u8>` needs no initialisation.
+        let buf = unsafe {
+            core::slice::from_raw_parts_mut(ptr.as_ptr().cast::<MaybeUninit<u8>>(), bytes)
+        };
+        Ok(Arena::new(buf))
+    }
+}
+
 /// A scratch scope of an [`Arena`]: allocations come from the arena's back end and
 /// are reclaimed when the scope ends.
 pub struct Scratch<'a, 'buf> {
