@@ -46,14 +46,14 @@ pub fn shared_clouds() -> Option<Vec<PathBuf>> {
     Some(v)
 }
 
-/// The points of a binary little-endian PLY with float `x y z` (the format of
-/// the shared clouds), centred and scaled into `[-1, 1]^3` as the host does.
-pub fn read_cloud(path: &std::path::Path) -> Vec<V3> {
-    let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+/// The points of a shared cloud (binary little-endian PLY, `float x y z` only),
+/// centred and scaled into `[-1, 1]^3` as the host does.
+pub fn load_shared_cloud(path: &std::path::Path) -> Vec<V3> {
+    let bytes = std::fs::read(path).unwrap();
     let h = bytes
         .windows(11)
         .position(|w| w == b"end_header\n")
-        .unwrap_or_else(|| panic!("{}: no PLY header", path.display()))
+        .expect("a PLY header")
         + 11;
     let raw: Vec<f32> = bytes[h..]
         .chunks_exact(4)

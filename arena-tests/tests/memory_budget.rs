@@ -13,7 +13,7 @@
 //! Shared clouds are read from `../shared/data/clouds` (skipped when absent).
 
 use arena_tests::{
-    cloud, mesh_capacity_may_run_out, read_cloud, shared_clouds, stem, topology, DENSE_BELOW,
+    cloud, load_shared_cloud, mesh_capacity_may_run_out, shared_clouds, stem, topology, DENSE_BELOW,
 };
 use std::mem::MaybeUninit;
 use std::panic::{catch_unwind, AssertUnwindSafe};
@@ -126,7 +126,7 @@ fn every_shared_cloud_fits_its_budget_within_twice_the_peak() {
     let (default, others) = sets.split_first().unwrap();
     let mut ratios = Vec::new();
     for (i, path) in files.iter().enumerate() {
-        let points = read_cloud(path);
+        let points = load_shared_cloud(path);
         // The default on every cloud, and two of the others in turn (each one
         // on four of the ten clouds).
         for (set, params) in [default, &others[i % 5], &others[(i + 2) % 5]] {
@@ -158,7 +158,7 @@ fn one_byte_less_than_the_peak_is_exhausted_and_the_buffer_serves_again() {
     ];
     if let Some(files) = shared_clouds() {
         for path in files.iter().filter(|p| stem(p) == "bunny") {
-            cases.push((stem(path), read_cloud(path), Params::default()));
+            cases.push((stem(path), load_shared_cloud(path), Params::default()));
         }
     }
     for (name, points, params) in cases {

@@ -1,8 +1,8 @@
 //! Output invariants of `reconstruct` on generated shapes and the shared clouds.
 
 use arena_tests::{
-    cloud, distance_to_mesh, mesh_capacity_may_run_out, read_cloud, shared_clouds, signed_volume,
-    topology,
+    cloud, distance_to_mesh, load_shared_cloud, mesh_capacity_may_run_out, shared_clouds,
+    signed_volume, topology,
 };
 use std::mem::MaybeUninit;
 use vsaqem_core::sample::Shape;
@@ -128,7 +128,7 @@ fn a_box_keeps_its_corners_and_edges() {
 fn shared_clouds_give_clean_manifolds() {
     let Some(files) = shared_clouds() else { return };
     for path in files {
-        let pts = read_cloud(&path);
+        let pts = load_shared_cloud(&path);
         for clusters in [250, 500, 1000, 2000] {
             let Some((v, t, stats)) = try_run(&pts, clusters) else {
                 continue;

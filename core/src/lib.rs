@@ -47,6 +47,7 @@
 extern crate std;
 
 pub mod arena;
+pub mod border;
 pub mod budget;
 pub mod candidates;
 pub mod cluster;
@@ -76,6 +77,7 @@ pub use progress::{Flow, Progress, Silent, Stage};
 pub use quadric::Planes;
 pub use select::SelectStats;
 pub use validate::Bounds;
+// (SelectionProblem is defined below.)
 
 /// Statistics of a run, per stage.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -211,6 +213,8 @@ pub struct MeshingStats {
     pub candidate_facets: u32,
     /// Fold groups (sets of facets of which at most one may be used) (last round).
     pub fold_groups: u32,
+    /// Clusters on the border of the data (see [`Params::border_angle`]) (last round).
+    pub border_clusters: u32,
     /// Facets dropped as degenerate (last round).
     pub degenerate_facets: u32,
     /// Generators merged as coincident (last round).
@@ -284,6 +288,7 @@ pub fn reconstruct<'a>(
                 arena,
                 points,
                 &open.neighbours,
+                &open.planes,
                 open.bounds.diag,
                 &state.view(),
                 params,
@@ -346,6 +351,7 @@ fn mesh_round<'a>(
     arena: &'a Arena,
     points: &[V3],
     nb: &Neighbours,
+    planes: &Planes,
     diag: f32,
     c: &Clusters,
     params: &Params,
@@ -354,56 +360,12 @@ fn mesh_round<'a>(
     progress: &mut dyn Progress,
 ) -> Result<(Option<Mesh<'a>>, MeshingStats)> {
     let gens = c.generators;
-    let labels = c.labels;
     arena.scratch(|s| {
-        progress::tick(progress, Stage::Candidates, 0, 1)?;
-        let (rep, merged) = candidates::try_merge_in(s, gens, diag)?;
-        let members = candidates::try_members_in(s, labels, rep)?;
-        let cand = candidates::try_candidates_in(s, nb, labels, rep, merged, &members, gens, diag)?;
-        progress::tick(progress, Stage::Candidates, 1, 1)?;
-        progress::tick(progress, Stage::Scoring, 0, 1)?;
-        let sp = score::ScoreParams {
-            epsilon: params.epsilon,
-            alpha_scale: params.alpha_scale,
-            fitting: params.fitting_weight,
-            coverage: params.coverage_weight,
-        };
-        let scores = score::try_scores_in(s, points, &members, &cand, gens, nb.spacing, diag, &sp)?;
-        progress::tick(progress, Stage::Scoring, 1, 1)?;
-        // Constraints: candidate edges (0 or 2 facets) and fold groups (at most one
-        // facet per 45-degree wedge around an edge), ids E.. for the groups.
-        let groups = candidates::try_fold_groups_in(s, &cand, gens)?;
-        let ne = cand.edges.len();
+        let p = problem_in(s, points, nb, planes, diag, c, params, progress)?;
+        let (cand, members, scores, groups) = (p.cand, p.members, p.scores, p.fold_groups);
         let nf = cand.facets.len();
-        // Edges may end with one facet at `border_penalty`; groups hold at most one.
-        let masks = s.try_alloc_slice::<u8>(ne + groups.count as usize, select::MASK_BORDER)?;
-        for m in masks[ne..].iter_mut() {
-            *m = select::MASK_AT_MOST_ONE;
-        }
-        let penalty = s.try_alloc_slice::<f32>(masks.len(), 0.0)?;
-        for p in penalty[..ne].iter_mut() {
-            *p = params.border_penalty;
-        }
-        let cons = s.try_alloc_slice::<[u32; 6]>(nf, [u32::MAX; 6])?;
-        for f in 0..nf {
-            let e = cand.facet_edges[f];
-            let g = groups.facet_groups[f];
-            cons[f][..3].copy_from_slice(&e);
-            let mut w = 3;
-            for k in 0..3 {
-                if g[k] != u32::MAX {
-                    cons[f][w] = ne as u32 + g[k];
-                    w += 1;
-                }
-            }
-        }
         progress::tick(progress, Stage::Selection, 0, nf as u64)?;
-        let input = select::SelectInput {
-            edge_mask: Some(masks),
-            edge_penalty: Some(penalty),
-            node_limit: params.node_limit,
-            ..select::SelectInput::new(cons, scores.score, masks.len())
-        };
+        let input = p.selection.input(params.node_limit);
         let mut cancelled = false;
         let (selected, sel) = select::try_select_in(s, &input, &mut |done, total| {
             cancelled = progress::tick(progress, Stage::Selection, done, total).is_err();
@@ -417,6 +379,8 @@ fn mesh_round<'a>(
             &members,
             selected,
             gens,
+            p.open,
+            p.moved,
             params.max_hole,
             diag,
             output,
@@ -428,7 +392,8 @@ fn mesh_round<'a>(
             MeshingStats {
                 candidate_edges: cand.edges.len() as u32,
                 candidate_facets: cand.facets.len() as u32,
-                fold_groups: groups.count,
+                fold_groups: groups,
+                border_clusters: p.open.iter().filter(|&&b| b).count() as u32,
                 degenerate_facets: cand.degenerate,
                 merged_generators: cand.merged,
                 mean_supports: scores.mean_supports,
@@ -437,5 +402,148 @@ fn mesh_round<'a>(
                 ..MeshingStats::default()
             },
         ))
+    })
+}
+
+/// The facet-selection problem of one meshing round and what it was built from.
+struct Problem<'s> {
+    cand: candidates::Candidates<'s>,
+    members: candidates::Members<'s>,
+    scores: score::Scores<'s>,
+    fold_groups: u32,
+    /// Per cluster: on the border of the data.
+    open: &'s [bool],
+    /// Per cluster on the border of the data: where its vertex goes when it ends on
+    /// the mesh's boundary (see [`border::try_border_clusters_in`]).
+    moved: &'s [V3],
+    selection: SelectionProblem<'s>,
+}
+
+/// Candidates, scores, fold groups and the selection constraints (DESIGN steps
+/// 8-10) for clusters `c`, allocated from `s`.
+#[allow(clippy::too_many_arguments)]
+fn problem_in<'s, 'b, A: Alloc<'b>>(
+    s: &'s A,
+    points: &[V3],
+    nb: &Neighbours,
+    planes: &Planes,
+    diag: f32,
+    c: &Clusters,
+    params: &Params,
+    progress: &mut dyn Progress,
+) -> Result<Problem<'s>> {
+    let gens = c.generators;
+    progress::tick(progress, Stage::Candidates, 0, 1)?;
+    let (rep, merged) = candidates::try_merge_in(s, gens, diag)?;
+    let members = candidates::try_members_in(s, c.labels, rep)?;
+    let cand = candidates::try_candidates_in(s, nb, c.labels, rep, merged, &members, gens, diag)?;
+    // Clusters on the border of the data; their vertices move onto it.
+    let moved = s.try_alloc_copy(gens)?;
+    let angle = params.border_angle * (core::f32::consts::PI / 180.0);
+    let open =
+        border::try_border_clusters_in(s, points, &members, planes, &cand, gens, angle, moved)?;
+    progress::tick(progress, Stage::Candidates, 1, 1)?;
+    progress::tick(progress, Stage::Scoring, 0, 1)?;
+    let sp = score::ScoreParams {
+        epsilon: params.epsilon,
+        alpha_scale: params.alpha_scale,
+        fitting: params.fitting_weight,
+        coverage: params.coverage_weight,
+    };
+    let scores = score::try_scores_in(s, points, &members, &cand, gens, nb.spacing, diag, &sp)?;
+    progress::tick(progress, Stage::Scoring, 1, 1)?;
+    // Constraints: candidate edges (0 or 2 facets) and fold groups (at most one
+    // facet per 45-degree wedge around an edge), ids E.. for the groups.
+    let groups = candidates::try_fold_groups_in(s, &cand, gens)?;
+    let ne = cand.edges.len();
+    let nf = cand.facets.len();
+    // Edges may end with one facet at `border_penalty`, free between two clusters
+    // on the border of the data; groups hold at most one.
+    let masks = s.try_alloc_slice::<u8>(ne + groups.count as usize, select::MASK_BORDER)?;
+    for m in masks[ne..].iter_mut() {
+        *m = select::MASK_AT_MOST_ONE;
+    }
+    let penalties = s.try_alloc_slice::<f32>(masks.len(), 0.0)?;
+    let on_border = |j: u32| open.get(j as usize).copied().unwrap_or(false);
+    for (p, e) in penalties[..ne].iter_mut().zip(cand.edges) {
+        if !(on_border(e[0]) && on_border(e[1])) {
+            *p = params.border_penalty;
+        }
+    }
+    let rows = s.try_alloc_slice::<[u32; 6]>(nf, [u32::MAX; 6])?;
+    for f in 0..nf {
+        rows[f] = select::join(cand.facet_edges[f], groups.facet_groups[f], ne as u32);
+    }
+    Ok(Problem {
+        cand,
+        members,
+        selection: SelectionProblem {
+            rows,
+            scores: scores.score,
+            masks,
+            penalties,
+        },
+        scores,
+        fold_groups: groups.count,
+        open,
+        moved,
+    })
+}
+
+/// The facet-selection problem (DESIGN step 10) as [`reconstruct`] builds it:
+/// one constraint row per candidate facet (its three edges, then its fold groups),
+/// the facet scores, and each constraint's mask and border penalty.
+#[derive(Clone, Copy, Debug)]
+pub struct SelectionProblem<'a> {
+    /// Constraint ids of each facet ([`select::UNUSED`] in unused slots).
+    pub rows: &'a [[u32; 6]],
+    /// Score of each facet.
+    pub scores: &'a [f32],
+    /// Mask of each constraint (edges first, then fold groups).
+    pub masks: &'a [u8],
+    /// Penalty of each constraint for ending with one facet.
+    pub penalties: &'a [f32],
+}
+
+impl SelectionProblem<'_> {
+    /// The problem as input to [`select::try_select_in`].
+    pub fn input(&self, node_limit: u64) -> select::SelectInput<'_> {
+        select::SelectInput {
+            edge_mask: Some(self.masks),
+            edge_penalty: Some(self.penalties),
+            node_limit,
+            ..select::SelectInput::new(self.rows, self.scores, self.masks.len())
+        }
+    }
+}
+
+/// The selection problem of the first meshing round of [`reconstruct`] for
+/// `clustered` (made by [`cluster`] from the same `points` and `params`), kept in
+/// `arena`; the candidates and scores it is built from live only in a scratch
+/// scope. For oracle tests and for studying the solver on real instances.
+pub fn selection_problem<'a>(
+    arena: &'a Arena,
+    points: &[V3],
+    clustered: &Clustered<'_>,
+    params: &Params,
+) -> Result<SelectionProblem<'a>> {
+    arena.scratch(|s| {
+        let p = problem_in(
+            s,
+            points,
+            &clustered.neighbours,
+            &clustered.planes,
+            clustered.bounds.diag,
+            &clustered.clusters,
+            params,
+            &mut Silent,
+        )?
+        .selection;
+        Ok(SelectionProblem {
+            rows: arena.try_alloc_copy(p.rows)?,
+            scores: arena.try_alloc_copy(p.scores)?,
+            masks: arena.try_alloc_copy(p.masks)?,
+            penalties: arena.try_alloc_copy(p.penalties)?,
+        })
     })
 }

@@ -57,6 +57,8 @@ pub struct MeshStats {
     pub filled_faces: u32,
     /// Boundary loops left open (longer than the limit, or no admissible ear).
     pub holes_left: u32,
+    /// Boundary loops kept open because they run along the border of the data.
+    pub open_loops: u32,
     /// Orientation clashes cut out and closed again.
     pub repairs: u32,
     /// Clusters (with points) that no face uses: uncovered parts of the data.
@@ -201,11 +203,18 @@ fn orient<'b, S: Alloc<'b>>(
 }
 
 /// What hole filling did.
+/// Loops shorter than this are filled even along the border of the data: a real
+/// border is long, while a spurious one (a few clusters that look like border on a
+/// noisy or sharp closed surface) rings a small hole.
+const MIN_OPEN_LOOP: usize = 8;
+
 #[derive(Clone, Copy, Default)]
 struct Filled {
     faces: usize,
     holes: u32,
     left: u32,
+    /// Loops kept open: most of their vertices are on the border of the data.
+    open: u32,
 }
 
 /// Close the boundary loops of the oriented `faces[..nf]` that have at most
@@ -219,6 +228,7 @@ fn fill_holes<'b, S: Alloc<'b>>(
     faces: &mut [[u32; 3]],
     nf: usize,
     generators: &[V3],
+    open: &[bool],
     max_hole: u32,
     tol: f32,
 ) -> Result<Filled> {
@@ -284,6 +294,14 @@ fn fill_holes<'b, S: Alloc<'b>>(
                 len += 1;
                 normal = add(normal, face_normal(faces[holes[h].2 as usize].map(g)));
                 cur = holes[h].1;
+            }
+            let on_border = poly[..len]
+                .iter()
+                .filter(|&&v| open.get(v as usize).copied().unwrap_or(false))
+                .count();
+            if closed && len >= MIN_OPEN_LOOP && 2 * on_border >= len {
+                out.open += 1;
+                continue;
             }
             if !closed || len < 3 || len > max_hole as usize {
                 out.left += 1;
@@ -382,6 +400,8 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
     members: &Members,
     selected: &[bool],
     generators: &[V3],
+    open: &[bool],
+    moved: &[V3],
     max_hole: u32,
     diag: f32,
     output: Output,
@@ -434,10 +454,11 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             // Close the holes; a clash (the selection folded over somewhere, which
             // edge constraints cannot see) is cut out with the faces around it and
             // closed again, a few times at most.
-            let more = fill_holes(s, faces, nf, generators, max_hole, tol)?;
+            let more = fill_holes(s, faces, nf, generators, open, max_hole, tol)?;
             filled.faces += more.faces;
             filled.holes += more.holes;
             filled.left = more.left;
+            filled.open = more.open;
             nf += more.faces;
             if non_orientable == 0 || repaired == REPAIRS {
                 if more.faces > 0 {
@@ -478,12 +499,20 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             3 * f + k
         };
         let mut boundary = 0u32;
+        let on_boundary = s.try_alloc_slice::<bool>(m, false)?;
         let mut i = 0;
         while i < table.len() {
             let k = table[i].0;
             let run = faces_of(&table[i..], k);
             match run {
-                [_] => boundary += 1,
+                [_] => {
+                    boundary += 1;
+                    for v in [(k >> 32) as usize, k as u32 as usize] {
+                        if let Some(b) = on_boundary.get_mut(v) {
+                            *b = true;
+                        }
+                    }
+                }
                 [(_, f), (_, g), ..] => {
                     let (u, v) = ((k >> 32) as u32, k as u32);
                     for w in [u, v] {
@@ -535,6 +564,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             repairs: repaired,
             filled_faces: filled.faces as u32,
             holes_left: filled.left,
+            open_loops: filled.open,
             uncovered_clusters: uncovered_clusters as u32,
             uncovered_points,
         };
@@ -548,7 +578,13 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             for k in 0..3 {
                 let v = vertex_of_root[find(parent, 3 * f + k)];
                 let cl = faces[f][k];
-                vertices[v as usize] = generators[cl as usize];
+                let c = cl as usize;
+                // A border cluster's vertex on the boundary goes onto the data's border.
+                let to_border = on_boundary[c] && open.get(c).copied().unwrap_or(false);
+                vertices[v as usize] = match moved.get(c) {
+                    Some(&p) if to_border => p,
+                    _ => generators[c],
+                };
                 vertex_cluster[v as usize] = cl;
                 triangles[f][k] = v;
             }
@@ -635,7 +671,7 @@ mod tests {
         all[..nf].copy_from_slice(faces);
         let clash = arena.try_alloc_slice::<bool>(all.len(), false).unwrap();
         orient(&arena, &mut all[..nf], v, clash).unwrap();
-        let filled = fill_holes(&arena, all, nf, v, max_hole, 1e-6).unwrap();
+        let filled = fill_holes(&arena, all, nf, v, &[], max_hole, 1e-6).unwrap();
         let total = nf + filled.faces;
         clash.fill(false);
         let (_, bad) = orient(&arena, &mut all[..total], v, clash).unwrap();

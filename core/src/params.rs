@@ -56,6 +56,13 @@ pub struct Params {
     /// Boundary loops of the selection with at most this many edges are closed by
     /// hole filling (0: none). Default 64.
     pub max_hole: u32,
+    /// Border of the data, in degrees: a cluster whose adjacent clusters leave an
+    /// angular gap wider than this around it lies where the data ends (an open
+    /// surface, a scan's edge, a hole in the data). Edges between two such
+    /// clusters may end with one facet at no cost, and boundary loops along them
+    /// stay open; everywhere else the border penalty and hole filling apply.
+    /// 360 turns detection off (every input treated as closed). Default 150.
+    pub border_angle: f32,
     /// Branch-and-bound search nodes allowed in facet selection. Default 200.
     pub node_limit: u64,
     /// Rounds of refinement where clusters are left out of the mesh (each round
@@ -96,6 +103,7 @@ impl Default for Params {
             coverage_weight: 0.3,
             border_penalty: 2.0,
             max_hole: 64,
+            border_angle: 150.0,
             node_limit: 200,
             refine_rounds: 0,
             mesh_bytes_per_cluster: 0,
@@ -146,6 +154,10 @@ impl Params {
             if !(v.is_finite() && v >= 0.0) {
                 return bad(name, v);
             }
+        }
+        if !(self.border_angle.is_finite() && self.border_angle > 0.0 && self.border_angle <= 360.0)
+        {
+            return bad("border_angle", self.border_angle);
         }
         if self.epsilon <= 0.0 {
             return bad("epsilon", self.epsilon);

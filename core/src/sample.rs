@@ -20,6 +20,17 @@ pub enum Shape {
     /// The built-in demo: a box with a cylinder fused on top and a rounded side,
     /// sharp edges and curved parts together.
     Demo,
+    /// Open: the upper half of the unit sphere (border: the unit circle at z = 0).
+    Hemisphere,
+    /// Open: the side of a cylinder of radius 0.6 for |z| <= 0.8, no caps (border:
+    /// two circles).
+    Tube,
+    /// Open: the height field z = 0.15 sin(πx) cos(πy/2) over [-1, 1]^2 (border:
+    /// the square's outline lifted onto it).
+    Wave,
+    /// Open: the unit sphere without the cap z > 0.7 (border: the circle of radius
+    /// √0.51 at z = 0.7).
+    HoledSphere,
 }
 
 impl Shape {
@@ -31,6 +42,10 @@ impl Shape {
             "box" => Shape::Box,
             "cylinder" => Shape::Cylinder,
             "demo" => Shape::Demo,
+            "hemisphere" => Shape::Hemisphere,
+            "tube" => Shape::Tube,
+            "wave" => Shape::Wave,
+            "holed-sphere" => Shape::HoledSphere,
             _ => return None,
         })
     }
@@ -140,6 +155,30 @@ fn demo_surface(rng: &mut Rng) -> [f64; 3] {
     }
 }
 
+/// `(z, ∂z/∂x, ∂z/∂y)` of the [`Shape::Wave`] height field at `(x, y)`.
+pub fn wave(x: f64, y: f64) -> (f64, f64, f64) {
+    let (a, b) = (PI * x, 0.5 * PI * y);
+    (
+        0.15 * libm::sin(a) * libm::cos(b),
+        0.15 * PI * libm::cos(a) * libm::cos(b),
+        -0.075 * PI * libm::sin(a) * libm::sin(b),
+    )
+}
+
+/// Area-uniform on the height field: uniform (x, y), kept with probability
+/// proportional to the area element.
+fn wave_surface(rng: &mut Rng) -> [f64; 3] {
+    let most = libm::sqrt(1.0 + (0.15 * PI) * (0.15 * PI) + (0.075 * PI) * (0.075 * PI));
+    loop {
+        let x = 2.0 * rng.unit_f64() - 1.0;
+        let y = 2.0 * rng.unit_f64() - 1.0;
+        let (z, zx, zy) = wave(x, y);
+        if rng.unit_f64() * most <= libm::sqrt(1.0 + zx * zx + zy * zy) {
+            return [x, y, z];
+        }
+    }
+}
+
 /// Fill `out` with points sampled uniformly by area on `shape`, plus isotropic
 /// Gaussian noise of standard deviation `noise` (absolute units).
 pub fn fill(shape: Shape, seed: u64, noise: f64, out: &mut [V3]) {
@@ -151,6 +190,22 @@ pub fn fill(shape: Shape, seed: u64, noise: f64, out: &mut [V3]) {
             Shape::Box => box_surface(&mut rng, [0.9, 0.6, 0.4]),
             Shape::Cylinder => cylinder_surface(&mut rng, 0.5, 0.8),
             Shape::Demo => demo_surface(&mut rng),
+            Shape::Hemisphere => {
+                let p = unit_sphere(&mut rng);
+                [p[0], p[1], p[2].abs()]
+            }
+            Shape::Tube => {
+                let t = 2.0 * PI * rng.unit_f64();
+                let z = (2.0 * rng.unit_f64() - 1.0) * 0.8;
+                [0.6 * libm::cos(t), 0.6 * libm::sin(t), z]
+            }
+            Shape::Wave => wave_surface(&mut rng),
+            Shape::HoledSphere => loop {
+                let p = unit_sphere(&mut rng);
+                if p[2] <= 0.7 {
+                    break p;
+                }
+            },
         };
         let mut q = [0.0f32; 3];
         for a in 0..3 {

@@ -86,6 +86,10 @@ pub fn shape_name(s: Shape) -> &'static str {
         Shape::Torus => "torus",
         Shape::Box => "box",
         Shape::Cylinder => "cylinder",
+        Shape::Hemisphere => "hemisphere",
+        Shape::Tube => "tube",
+        Shape::Wave => "wave",
+        Shape::HoledSphere => "holed-sphere",
         _ => "demo",
     }
 }

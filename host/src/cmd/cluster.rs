@@ -17,7 +17,8 @@ pub struct InputArgs {
     /// Point cloud to read (.ply, .xyz/.xyzn/.txt/.pts, .pcd; normals used when
     /// present). Without it, a built-in generated sample is used.
     pub input: Option<PathBuf>,
-    /// Built-in sample when no input is given: demo, sphere, torus, box, cylinder.
+    /// Built-in sample when no input is given: demo, sphere, torus, box, cylinder
+    /// (closed); hemisphere, tube, wave, holed-sphere (open surfaces).
     #[arg(long, default_value = "demo", value_parser = parse_shape)]
     pub sample: Shape,
     /// Points of the built-in sample.
@@ -30,8 +31,12 @@ pub struct InputArgs {
 }
 
 fn parse_shape(s: &str) -> Result<Shape, String> {
-    Shape::from_name(s)
-        .ok_or_else(|| format!("unknown sample '{s}': use demo, sphere, torus, box or cylinder"))
+    Shape::from_name(s).ok_or_else(|| {
+        format!(
+            "unknown sample '{s}': use demo, sphere, torus, box, cylinder (closed), \
+             hemisphere, tube, wave or holed-sphere (open)"
+        )
+    })
 }
 
 /// Clustering parameters; defaults are `vsaqem_core::Params::default()`.

@@ -33,6 +33,11 @@ pub struct MeshArgs {
     /// Close boundary loops of the selection with at most this many edges (0: none).
     #[arg(long, default_value_t = Params::default().max_hole)]
     pub max_hole: u32,
+    /// Border of the data, in degrees: a cluster whose neighbours leave a wider
+    /// angular gap around it is where the data ends; boundary loops along such
+    /// clusters stay open. 360 treats every input as closed.
+    #[arg(long, default_value_t = Params::default().border_angle)]
+    pub border_angle: f32,
     /// Branch-and-bound node limit of the facet selection.
     #[arg(long, default_value_t = Params::default().node_limit)]
     pub node_limit: u64,
@@ -79,6 +84,7 @@ impl Cmd {
             node_limit: self.mesh.node_limit,
             border_penalty: self.mesh.border_penalty,
             max_hole: self.mesh.max_hole,
+            border_angle: self.mesh.border_angle,
             refine_rounds: self.mesh.refine_rounds,
             mesh_bytes_per_cluster: self.mesh.mesh_bytes_per_cluster,
             ..self.cluster.params()
@@ -198,6 +204,7 @@ impl Report<'_> {
              candidates {} edges, {} facets ({} degenerate, {} fold groups, {} generators merged), {:.1} supports per facet\n\
              selection  {solver}, {} independent parts (largest {} facets), {} facets fixed by propagation\n\
              mesh       {} vertices, {} faces, {} components, {closed}\n\
+             border     {} clusters on the border of the data, {} boundary loops kept open along it\n\
              repair     {} holes closed with {} faces, {} left open; {} orientation clashes cut out; {} vertices split\n\
              time       {}\n\
              memory     arena peak {} bytes ({:.1} bytes/point), {} reserved\n\
@@ -221,6 +228,8 @@ impl Report<'_> {
             mesh.vertices,
             mesh.faces,
             mesh.components,
+            m.border_clusters,
+            mesh.open_loops,
             mesh.holes_filled,
             mesh.filled_faces,
             mesh.holes_left,
@@ -274,6 +283,8 @@ impl Report<'_> {
             .num("components", mesh.components as f64)
             .num("non_orientable_components", mesh.non_orientable as f64)
             .num("split_vertices", mesh.split_vertices as f64)
+            .num("border_clusters", m.border_clusters as f64)
+            .num("open_loops", mesh.open_loops as f64)
             .num("holes_filled", mesh.holes_filled as f64)
             .num("filled_faces", mesh.filled_faces as f64)
             .num("holes_left", mesh.holes_left as f64)
