@@ -4,7 +4,7 @@ use std::mem::MaybeUninit;
 
 use arena_tests::{cloud, topology};
 use vsaqem_core::sample::{fill, Shape};
-use vsaqem_core::{reconstruct, reconstruct_bytes, Arena, Params, Silent};
+use vsaqem_core::{arena_bytes, reconstruct, Arena, Params, Silent};
 
 fn main() {
     let shapes = [
@@ -31,7 +31,7 @@ fn main() {
                 border_angle: deg,
                 ..Params::default()
             };
-            let mut buf = vec![MaybeUninit::<u8>::uninit(); reconstruct_bytes(pts.len(), &params)];
+            let mut buf = vec![MaybeUninit::<u8>::uninit(); arena_bytes(pts.len(), &params)];
             let arena = Arena::new(&mut buf);
             let r = reconstruct(&arena, &pts, None, &params, &mut Silent).unwrap();
             let t = topology(r.mesh.vertices, r.mesh.triangles);

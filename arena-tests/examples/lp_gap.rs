@@ -8,7 +8,7 @@ use std::time::Instant;
 use arena_tests::load_shared_cloud;
 use good_lp::{microlp, variable, Expression, ProblemVariables, SolverModel};
 use vsaqem_core::select::{try_select_in, MASK_AT_MOST_ONE, UNUSED};
-use vsaqem_core::{cluster, reconstruct_bytes, selection_problem, Arena, Params, Silent};
+use vsaqem_core::{arena_bytes, cluster, selection_problem, Arena, Params, Silent};
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -19,7 +19,7 @@ fn main() {
         ..Params::default()
     };
     let pts = load_shared_cloud(&path);
-    let mut buf = vec![MaybeUninit::<u8>::uninit(); 4 * reconstruct_bytes(pts.len(), &params)];
+    let mut buf = vec![MaybeUninit::<u8>::uninit(); 4 * arena_bytes(pts.len(), &params)];
     let arena = Arena::new(&mut buf);
     let clustered = cluster(&arena, &pts, None, &params, &mut Silent).unwrap();
     let p = selection_problem(&arena, &pts, &clustered, &params).unwrap();

@@ -2,7 +2,7 @@
 use arena_tests::{cloud, topology};
 use std::mem::MaybeUninit;
 use vsaqem_core::sample::Shape;
-use vsaqem_core::{reconstruct, reconstruct_bytes, Arena, Params, Silent};
+use vsaqem_core::{arena_bytes, reconstruct, Arena, Params, Silent};
 fn main() {
     let max_hole: u32 = std::env::var("HOLE")
         .ok()
@@ -16,7 +16,7 @@ fn main() {
                 max_hole,
                 ..Params::default()
             };
-            let mut buf = vec![MaybeUninit::uninit(); reconstruct_bytes(pts.len(), &params)];
+            let mut buf = vec![MaybeUninit::uninit(); arena_bytes(pts.len(), &params)];
             let arena = Arena::new(&mut buf);
             let t = std::time::Instant::now();
             let r = reconstruct(&arena, &pts, None, &params, &mut Silent).unwrap();

@@ -6,6 +6,20 @@ use std::path::PathBuf;
 use vsaqem_core::sample::{fill, Shape};
 use vsaqem_core::V3;
 
+/// Points per cluster of the cap below which a run with the default meshing
+/// capacity (`Params::mesh_bytes_per_cluster`) may fail with
+/// `Error::MeshCapacity`: with fewer points per cluster the candidate graph gets
+/// denser than that capacity reserves (README, known limits). With at least
+/// this many, every test cloud fits, and the memory tests hold core to it.
+pub const DENSE_BELOW: usize = 12;
+
+/// Whether a run on `n` points may fail with `Error::MeshCapacity` under the
+/// default capacity (see [`DENSE_BELOW`]).
+pub fn mesh_capacity_may_run_out(n: usize, params: &vsaqem_core::Params) -> bool {
+    let cap = (params.cluster_cap() as usize).min(n).max(1);
+    n < DENSE_BELOW * cap
+}
+
 /// `n` points on `shape` (seeded).
 pub fn cloud(shape: Shape, n: usize, seed: u64) -> Vec<V3> {
     let mut p = vec![[0.0; 3]; n];
@@ -61,6 +75,13 @@ pub fn load_shared_cloud(path: &std::path::Path) -> Vec<V3> {
         }
     }
     pts
+}
+
+/// The file stem of `path` (a cloud's name in reports).
+pub fn stem(path: &std::path::Path) -> String {
+    path.file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default()
 }
 
 /// Topological facts of a triangle mesh, computed without trusting the producer.

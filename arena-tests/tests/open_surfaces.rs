@@ -6,7 +6,7 @@ use std::mem::MaybeUninit;
 
 use arena_tests::{cloud, distance_to_mesh, topology};
 use vsaqem_core::sample::{wave, Shape};
-use vsaqem_core::{reconstruct, reconstruct_bytes, Arena, Params, Silent, V3};
+use vsaqem_core::{arena_bytes, reconstruct, Arena, Params, Silent, V3};
 
 /// Distance from `p` to the true border of `shape` (for the wave, to a point of
 /// the border, which is no less than the distance to the border).
@@ -61,7 +61,7 @@ fn open_shapes_keep_their_border_and_cover_their_points() {
                 clusters,
                 ..Params::default()
             };
-            let mut buf = vec![MaybeUninit::uninit(); reconstruct_bytes(pts.len(), &params)];
+            let mut buf = vec![MaybeUninit::uninit(); arena_bytes(pts.len(), &params)];
             let arena = Arena::new(&mut buf);
             let r = reconstruct(&arena, &pts, None, &params, &mut Silent).unwrap();
             let (v, t) = (r.mesh.vertices, r.mesh.triangles);

@@ -22,7 +22,7 @@ use vsaqem_core::select::{
     MASK_CLOSED, MAX_CONSTRAINTS, UNUSED,
 };
 use vsaqem_core::SelectionProblem;
-use vsaqem_core::{cluster, reconstruct_bytes, selection_problem, Arena, Params, Silent};
+use vsaqem_core::{arena_bytes, cluster, selection_problem, Arena, Params, Silent};
 
 /// A selection instance with owned data.
 #[derive(Clone)]
@@ -739,7 +739,7 @@ fn bnb_matches_the_mip_on_pieces_of_the_shared_clouds() {
     let (mut proved, mut compared, mut total) = (0, 0, 0);
     for path in &files {
         let pts = load_shared_cloud(path);
-        let mut buf = vec![MaybeUninit::<u8>::uninit(); reconstruct_bytes(pts.len(), &params)];
+        let mut buf = vec![MaybeUninit::<u8>::uninit(); arena_bytes(pts.len(), &params)];
         let arena = Arena::new(&mut buf);
         let clustered = cluster(&arena, &pts, None, &params, &mut Silent).unwrap();
         let problem = selection_problem(&arena, &pts, &clustered, &params).unwrap();

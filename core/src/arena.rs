@@ -16,6 +16,14 @@
 //! (alignment padding included), so the memory tests can compare them with the
 //! predicted budget.
 //!
+//! Every allocation starts a multiple of [`GRANULE`] (8) bytes from the start and
+//! takes a multiple of it, so no type of alignment up to 8 ever needs padding, and
+//! `used()` and `peak()` depend only on the sequence of requests, not on where the
+//! buffer lies or how long it is: a run that peaked at `P` bytes fits in any
+//! buffer of `P` bytes that starts on an 8-byte boundary (as heap allocations
+//! do). A buffer that does not loses up to 7 bytes at its start; its last
+//! `len % 8` bytes are never used.
+//!
 //! This is the one module of the crate that uses `unsafe`: turning the raw buffer
 //! into typed, disjoint `&mut [T]` slices. Every block states why it is sound.
 #![allow(unsafe_code)]
@@ -47,6 +55,26 @@ impl fmt::Display for Exhausted {
     }
 }
 
+/// Every allocation starts on, and takes, a multiple of this many bytes.
+pub const GRANULE: usize = 8;
+
+/// `bytes` rounded up to a multiple of [`GRANULE`] (`None` on overflow).
+fn granules(bytes: usize) -> Option<usize> {
+    bytes.checked_add(GRANULE - 1).map(|b| b & !(GRANULE - 1))
+}
+
+/// Bytes a request for `count` values of `T` takes from an [`Arena`], at either
+/// end: its size rounded up to the granule, plus alignment padding for types
+/// aligned to more than 8 bytes. Exact for the types core uses; saturates instead
+/// of overflowing, for budgets.
+pub fn padded_bytes<T>(count: usize) -> usize {
+    count
+        .checked_mul(size_of::<T>())
+        .and_then(granules)
+        .unwrap_or(usize::MAX)
+        .saturating_add(align_of::<T>().saturating_sub(GRANULE))
+}
+
 /// Bump arena over `&'buf mut [MaybeUninit<u8>]`. See the module docs.
 ///
 /// Not `Sync`: offsets live in `Cell`s, so allocation needs only `&self` and
@@ -61,14 +89,23 @@ pub struct Arena<'buf> {
     /// Depth of the innermost live scratch scope (0: none).
     depth: Cell<u32>,
     peak: Cell<usize>,
+    /// `used()` may not exceed this (`usize::MAX`: no ceiling). See
+    /// [`Arena::with_ceiling`].
+    ceiling: Cell<usize>,
+    /// A request failed while the ceiling was at or below the buffer's end.
+    ceiling_hit: Cell<bool>,
     _buf: PhantomData<&'buf mut [MaybeUninit<u8>]>,
 }
 
 impl<'buf> Arena<'buf> {
     /// An empty arena over `buf`. The arena borrows the buffer mutably for its whole
     /// life; dropping the arena gives the buffer back for reuse.
+    /// The part of the buffer used starts at its first 8-byte boundary and ends at
+    /// a multiple of 8 bytes from there (see the module docs).
     pub fn new(buf: &'buf mut [MaybeUninit<u8>]) -> Self {
-        let len = buf.len();
+        let skip = ((buf.as_ptr() as usize).wrapping_neg() & (GRANULE - 1)).min(buf.len());
+        let buf = &mut buf[skip..];
+        let len = buf.len() & !(GRANULE - 1);
         // A slice pointer is never null (it is dangling but aligned when empty).
         let base = NonNull::from(buf).cast::<u8>();
         Arena {
@@ -78,11 +115,13 @@ impl<'buf> Arena<'buf> {
             back: Cell::new(len),
             depth: Cell::new(0),
             peak: Cell::new(0),
+            ceiling: Cell::new(usize::MAX),
+            ceiling_hit: Cell::new(false),
             _buf: PhantomData,
         }
     }
 
-    /// Total size of the buffer in bytes.
+    /// Usable size of the buffer in bytes (see [`Arena::new`]).
     pub fn capacity(&self) -> usize {
         self.len
     }
@@ -97,9 +136,45 @@ impl<'buf> Arena<'buf> {
         self.peak.get()
     }
 
-    /// Bytes between the two ends (an upper bound on the next allocation).
+    /// Bytes the next allocation may take (padding included): the free space
+    /// between the two ends, or less under a ceiling ([`Arena::with_ceiling`]).
     pub fn available(&self) -> usize {
+        self.room()
+            .min(self.ceiling.get().saturating_sub(self.used()))
+    }
+
+    /// Bytes between the two ends.
+    fn room(&self) -> usize {
         self.back.get() - self.front.get()
+    }
+
+    /// The error for a request of `need` bytes that does not fit, noting when the
+    /// ceiling, not the buffer's end, was the limit (or both, at the same place).
+    fn refuse(&self, need: usize) -> Exhausted {
+        if self.ceiling.get().saturating_sub(self.used()) <= self.room() {
+            self.ceiling_hit.set(true);
+        }
+        Exhausted {
+            requested: need,
+            available: self.available(),
+        }
+    }
+
+    /// Run `f` with `used()` capped at `ceiling` bytes (or at an enclosing
+    /// ceiling, when lower): a request beyond it fails with [`Exhausted`] as if
+    /// the buffer ended there, so a stage can be held to a budget of its own
+    /// inside a larger buffer. Returns `f`'s result and whether some request
+    /// failed while this ceiling was at or below the buffer's end: then the
+    /// ceiling, not the buffer, was too small.
+    pub fn with_ceiling<R>(&self, ceiling: usize, f: impl FnOnce() -> R) -> (R, bool) {
+        let (outer, outer_hit) = (self.ceiling.get(), self.ceiling_hit.get());
+        self.ceiling.set(outer.min(ceiling));
+        self.ceiling_hit.set(false);
+        let out = f();
+        let hit = self.ceiling_hit.get();
+        self.ceiling.set(outer);
+        self.ceiling_hit.set(outer_hit || hit);
+        (out, hit)
     }
 
     fn note_peak(&self) {
@@ -109,26 +184,28 @@ impl<'buf> Arena<'buf> {
         }
     }
 
+    /// The bytes `count` values of `T` take: a multiple of the granule.
     fn byte_size<T>(count: usize) -> Result<usize, Exhausted> {
-        count.checked_mul(size_of::<T>()).ok_or(Exhausted {
-            requested: usize::MAX,
-            available: 0,
-        })
+        count
+            .checked_mul(size_of::<T>())
+            .and_then(granules)
+            .ok_or(Exhausted {
+                requested: usize::MAX,
+                available: 0,
+            })
     }
 
     /// Reserve room for `count` values of `T` at the front. Returns the byte offset.
+    /// Both ends stay on granule boundaries; padding is needed only for types
+    /// aligned to more than the granule.
     fn reserve_front<T>(&self, count: usize) -> Result<usize, Exhausted> {
         let bytes = Self::byte_size::<T>(count)?;
         let front = self.front.get();
         let addr = self.base.as_ptr() as usize + front;
         let pad = addr.wrapping_neg() & (align_of::<T>() - 1);
         let need = bytes.saturating_add(pad);
-        let available = self.available();
-        if need > available {
-            return Err(Exhausted {
-                requested: need,
-                available,
-            });
+        if need > self.available() {
+            return Err(self.refuse(need));
         }
         self.front.set(front + need);
         self.note_peak();
@@ -139,21 +216,14 @@ impl<'buf> Arena<'buf> {
     fn reserve_back<T>(&self, count: usize) -> Result<usize, Exhausted> {
         let bytes = Self::byte_size::<T>(count)?;
         let back = self.back.get();
-        let available = self.available();
-        if bytes > available {
-            return Err(Exhausted {
-                requested: bytes,
-                available,
-            });
+        if bytes > self.available() {
+            return Err(self.refuse(bytes));
         }
         let start = back - bytes;
         let addr = self.base.as_ptr() as usize + start;
         let aligned = start - (addr & (align_of::<T>() - 1));
-        if aligned < self.front.get() {
-            return Err(Exhausted {
-                requested: back - aligned,
-                available,
-            });
+        if back - aligned > self.available() {
+            return Err(self.refuse(back - aligned));
         }
         self.back.set(aligned);
         self.note_peak();
@@ -225,6 +295,56 @@ impl<'buf> Arena<'buf> {
         self.front.set(0);
         self.back.set(self.len);
         self.depth.set(0);
+        self.ceiling.set(usize::MAX);
+        self.ceiling_hit.set(false);
+    }
+}
+
+impl fmt::Debug for Arena<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Arena")
+            .field("capacity", &self.capacity())
+            .field("used", &self.used())
+            .field("peak", &self.peak())
+            .finish()
+    }
+}
+
+#[cfg(feature = "bumpalo")]
+impl<'b> Arena<'b> {
+    /// An arena of `bytes` bytes taken from `bump` instead of a caller's slice
+    /// (feature `bumpalo`, for std hosts that manage memory with bumpalo). The
+    /// bump's allocation limit (`Bump::set_allocation_limit`) is honoured: when
+    /// the bump cannot give `bytes` more (the limit counts bumpalo's chunks, which
+    /// round requests up, plus their headers), this is [`Exhausted`] with
+    /// `requested: bytes` and what the limit still allows as `available`, never a
+    /// panic or an abort. The bytes go back when the bump is reset or dropped.
+    ///
+    /// ```
+    /// # use vsaqem_core::{arena_bytes, Arena, Params};
+    /// let bump = bumpalo::Bump::new();
+    /// bump.set_allocation_limit(Some(1 << 20));
+    /// let params = Params::default();
+    /// assert!(Arena::try_from_bump(&bump, arena_bytes(100_000, &params)).is_err());
+    /// assert!(Arena::try_from_bump(&bump, 64 * 1024).is_ok());
+    /// ```
+    pub fn try_from_bump(bump: &'b bumpalo::Bump, bytes: usize) -> Result<Self, Exhausted> {
+        let refused = || Exhausted {
+            requested: bytes,
+            available: bump
+                .allocation_limit()
+                .map_or(0, |limit| limit.saturating_sub(bump.allocated_bytes())),
+        };
+        let layout = core::alloc::Layout::from_size_align(bytes, GRANULE).map_err(|_| refused())?;
+        let ptr = bump.try_alloc_layout(layout).map_err(|_| refused())?;
+        // SAFETY: `try_alloc_layout` returned a fresh allocation of `bytes` bytes
+        // that bumpalo hands to no one else and frees only on `reset` or drop, both
+        // of which need the bump mutably, so it stays valid and unaliased while
+        // `bump` is borrowed for 'b. `MaybeUninit<u8>` needs no initialisation.
+        let buf = unsafe {
+            core::slice::from_raw_parts_mut(ptr.as_ptr().cast::<MaybeUninit<u8>>(), bytes)
+        };
+        Ok(Arena::new(buf))
     }
 }
 
@@ -337,19 +457,23 @@ impl<'buf> Alloc<'buf> for Scratch<'_, 'buf> {
 mod tests {
     use super::*;
 
-    fn buf(n: usize) -> [MaybeUninit<u8>; 256] {
+    /// 256 bytes on an 8-byte boundary.
+    #[repr(align(8))]
+    struct Buf([MaybeUninit<u8>; 256]);
+
+    fn buf(n: usize) -> Buf {
         assert!(n <= 256);
-        [MaybeUninit::uninit(); 256]
+        Buf([MaybeUninit::uninit(); 256])
     }
 
     #[test]
     fn exhaustion_is_an_error_with_exact_numbers() {
         let mut b = buf(256);
-        let a = Arena::new(&mut b[..64]);
+        let a = Arena::new(&mut b.0[..64]);
         let x = a.try_alloc_slice::<u32>(10, 7).unwrap();
         assert_eq!(x, &[7; 10]);
         let used = a.used();
-        assert!((40..=43).contains(&used), "{used}");
+        assert_eq!(used, 40);
         let e = a.try_alloc_slice::<u32>(100, 0).unwrap_err();
         assert_eq!(e.available, 64 - used);
         assert!(e.requested >= 400);
@@ -361,7 +485,7 @@ mod tests {
     #[test]
     fn size_overflow_is_an_error_not_a_panic() {
         let mut b = buf(256);
-        let a = Arena::new(&mut b[..]);
+        let a = Arena::new(&mut b.0[..]);
         let e = a.try_alloc_slice::<u64>(usize::MAX / 2, 0).unwrap_err();
         assert_eq!(e.requested, usize::MAX);
     }
@@ -369,7 +493,7 @@ mod tests {
     #[test]
     fn scratch_is_reclaimed_and_peak_remembers_it() {
         let mut b = buf(256);
-        let a = Arena::new(&mut b[..]);
+        let a = Arena::new(&mut b.0[..]);
         let p = a.try_alloc_slice::<u8>(16, 1).unwrap();
         let before = a.used();
         let s = a.scratch(|s| {
@@ -379,15 +503,16 @@ mod tests {
             t.iter().sum::<u64>() + q.len() as u64
         });
         assert_eq!(s, 28);
-        assert_eq!(a.used(), before + 4);
-        assert!(a.peak() >= before + 4 + 64);
+        // 4 bytes take a granule.
+        assert_eq!(a.used(), before + 8);
+        assert_eq!(a.peak(), before + 8 + 64);
         assert_eq!(p, &[1; 16]);
     }
 
     #[test]
     fn values_are_aligned_at_both_ends() {
         let mut b = buf(256);
-        let a = Arena::new(&mut b[..]);
+        let a = Arena::new(&mut b.0[..]);
         let _ = a.try_alloc_slice::<u8>(3, 0).unwrap();
         let x = a.try_alloc_slice::<u64>(2, 0).unwrap();
         assert_eq!(x.as_ptr() as usize % align_of::<u64>(), 0);
@@ -401,7 +526,7 @@ mod tests {
     #[test]
     fn outer_scope_cannot_allocate_while_inner_is_live() {
         let mut b = buf(256);
-        let a = Arena::new(&mut b[..]);
+        let a = Arena::new(&mut b.0[..]);
         a.scratch(|outer| {
             let _keep = outer.try_alloc_slice::<u32>(2, 5).unwrap();
             outer.scratch(|inner| {
@@ -415,11 +540,13 @@ mod tests {
     #[test]
     fn the_ends_never_overlap() {
         let mut b = buf(256);
-        let a = Arena::new(&mut b[..100]);
-        let p = a.try_alloc_slice::<u8>(50, 1).unwrap();
+        // 100 bytes: 96 used (whole granules).
+        let a = Arena::new(&mut b.0[..100]);
+        assert_eq!(a.capacity(), 96);
+        let p = a.try_alloc_slice::<u8>(45, 1).unwrap();
         a.scratch(|s| {
-            assert!(s.try_alloc_slice::<u8>(51, 2).is_err());
-            let t = s.try_alloc_slice::<u8>(50, 2).unwrap();
+            assert!(s.try_alloc_slice::<u8>(49, 2).is_err());
+            let t = s.try_alloc_slice::<u8>(48, 2).unwrap();
             assert_eq!(a.available(), 0);
             assert!(a.try_alloc_slice::<u8>(1, 0).is_err());
             assert!(t.iter().all(|&v| v == 2));
@@ -430,7 +557,7 @@ mod tests {
     #[test]
     fn reset_makes_the_buffer_reusable() {
         let mut b = buf(256);
-        let mut a = Arena::new(&mut b[..32]);
+        let mut a = Arena::new(&mut b.0[..32]);
         assert!(a.try_alloc_slice::<u8>(32, 0).is_ok());
         assert!(a.try_alloc_slice::<u8>(1, 0).is_err());
         a.reset();
@@ -438,9 +565,78 @@ mod tests {
     }
 
     #[test]
+    fn a_ceiling_caps_use_and_says_when_it_was_the_reason() {
+        let mut b = buf(256);
+        let a = Arena::new(&mut b.0[..]);
+        let _ = a.try_alloc_slice::<u8>(16, 0).unwrap();
+        let ((), hit) = a.with_ceiling(64, || {
+            assert_eq!(a.available(), 48);
+            assert!(a.try_alloc_slice::<u8>(40, 0).is_ok());
+            a.scratch(|s| {
+                let e = s.try_alloc_slice::<u8>(9, 0).unwrap_err();
+                assert_eq!(e.available, 8);
+                assert!(s.try_alloc_slice::<u8>(8, 0).is_ok());
+            });
+            assert!(a.used() <= 64);
+        });
+        assert!(hit, "the ceiling, not the buffer, refused the request");
+        // Too big for the buffer as well: still the ceiling's refusal, as it is
+        // the lower limit.
+        let ((), hit) = a.with_ceiling(a.used() + 8, || {
+            assert!(a.try_alloc_slice::<u8>(1000, 0).is_err());
+        });
+        assert!(hit);
+        // Lifted again: the buffer's own end applies.
+        assert!(a.try_alloc_slice::<u8>(100, 0).is_ok());
+        let ((), hit) = a.with_ceiling(usize::MAX, || {
+            assert!(a.try_alloc_slice::<u8>(200, 0).is_err());
+        });
+        assert!(!hit, "the buffer itself was too small");
+        // A ceiling exactly at the buffer's end is the ceiling's refusal.
+        let ((), hit) = a.with_ceiling(a.capacity(), || {
+            assert!(a.try_alloc_slice::<u8>(200, 0).is_err());
+        });
+        assert!(hit);
+        // An inner ceiling above an outer one does not lift it.
+        let ((), _) = a.with_ceiling(a.used() + 8, || {
+            let (r, inner_hit) =
+                a.with_ceiling(usize::MAX, || a.try_alloc_slice::<u8>(9, 0).is_err());
+            assert!(r && inner_hit);
+        });
+    }
+
+    #[test]
+    fn the_peak_depends_on_the_requests_not_on_the_buffer() {
+        let mut b = buf(256);
+        let run = |a: &Arena| -> Result<(), Exhausted> {
+            let _ = a.try_alloc_slice::<u8>(3, 0)?;
+            a.scratch(|s| -> Result<(), Exhausted> {
+                let _ = s.try_alloc_slice::<u32>(5, 0)?;
+                let _ = s.try_alloc_slice::<u64>(2, 0)?;
+                let _ = a.try_alloc_slice::<[f32; 3]>(3, [0.0; 3])?;
+                Ok(())
+            })?;
+            let _ = a.try_alloc_slice::<u16>(7, 0)?;
+            Ok(())
+        };
+        let mut peaks = std::vec::Vec::new();
+        for (start, len) in [(0, 256), (0, 203), (8, 131), (3, 200), (5, 99)] {
+            let a = Arena::new(&mut b.0[start..start + len]);
+            run(&a).unwrap();
+            peaks.push(a.peak());
+        }
+        assert!(peaks.iter().all(|&p| p == peaks[0]), "{peaks:?}");
+        let peak = peaks[0];
+        assert_eq!(peak % GRANULE, 0);
+        // Exactly the peak is enough; a granule less is not.
+        assert!(run(&Arena::new(&mut b.0[8..8 + peak])).is_ok());
+        assert!(run(&Arena::new(&mut b.0[8..8 + peak - 1])).is_err());
+    }
+
+    #[test]
     fn zero_sized_and_empty_requests_work() {
         let mut b = buf(256);
-        let a = Arena::new(&mut b[..0]);
+        let a = Arena::new(&mut b.0[..0]);
         assert_eq!(a.try_alloc_slice::<()>(1000, ()).unwrap().len(), 1000);
         assert_eq!(a.try_alloc_slice::<u32>(0, 0).unwrap().len(), 0);
         assert!(a.try_alloc_slice::<u32>(1, 0).is_err());

@@ -25,7 +25,7 @@
 //! Memory: labels 4 B and heap 8 B per point (the heap is scratch), plus
 //! O(clusters). Cost per pass: O(n k log n).
 
-use crate::arena::{Arena, Scratch};
+use crate::arena::{padded_bytes, Arena, Scratch};
 use crate::error::Result;
 use crate::knn::Neighbours;
 use crate::math::{dist2, Rng, V3};
@@ -102,15 +102,42 @@ impl Ctx<'_, '_> {
     }
 }
 
-/// Bytes of arena that clustering `n` points into at most `cap` clusters needs:
-/// persistent labels, generators and seeds, plus the largest scratch of a pass.
-pub fn cluster_bytes(n: usize, cap: usize) -> usize {
-    let persistent = n * 4 + 2 * cap * (12 + 4);
-    let init = n * 8 + cap * 4; // union-find parents + shuffled order
-    let partition = n * 16 + cap * 4;
-    let update = cap * (core::mem::size_of::<Quadric>() + 8 * 4 + 8);
-    let split = split::split_bytes(n, cap);
-    persistent + init.max(partition).max(update).max(split) + 16 * 64
+/// Arena bytes of clustering `n` points into at most `cap` clusters: `(kept,
+/// scratch)`. Kept: labels (4 per point), generators and seeds, and their
+/// backups for undoing a splitting batch (32 per cluster of the cap). Scratch:
+/// the largest of one step's, each in a scope of its own: the components (4 per
+/// point), the initial seeds (9 per point), a partition (16 per point: cost,
+/// rival, heap), a generator update (116 per cluster), a splitting batch
+/// ([`split::split_bytes`]) and a refinement ([`ClusterState::refine`], 9 per
+/// cluster, then a partition). Keep in step with the functions named.
+pub fn cluster_bytes(n: usize, cap: usize) -> (usize, usize) {
+    let sum = |list: &[usize]| list.iter().fold(0usize, |a, &b| a.saturating_add(b));
+    let kept = sum(&[
+        padded_bytes::<u32>(n),   // labels
+        padded_bytes::<V3>(cap),  // generators
+        padded_bytes::<u32>(cap), // seeds
+        padded_bytes::<V3>(cap),  // backup_g
+        padded_bytes::<u32>(cap), // backup_s
+    ]);
+    let components = padded_bytes::<u32>(n);
+    let seeds = sum(&[components, padded_bytes::<u32>(n), padded_bytes::<u8>(n)]);
+    let partition = sum(&[
+        padded_bytes::<f32>(n),
+        padded_bytes::<u32>(n),
+        padded_bytes::<u64>(n),
+    ]);
+    let update = sum(&[
+        padded_bytes::<Quadric>(cap),
+        padded_bytes::<[f64; 4]>(cap),
+        padded_bytes::<f32>(cap),
+    ]);
+    let refine = sum(&[padded_bytes::<(f32, u32)>(cap), padded_bytes::<bool>(cap)]);
+    let scratch = seeds
+        .max(partition)
+        .max(update)
+        .max(split::split_bytes(n, cap))
+        .max(refine);
+    (kept, scratch)
 }
 
 /// Run the whole clustering: initialisation, then rounds of partition/update
@@ -149,6 +176,17 @@ impl<'a> ClusterState<'a> {
             seeds: &self.seeds[..self.m],
             stats: self.stats,
         }
+    }
+
+    /// Generators the cluster cap still allows ([`ClusterState::refine`] adds
+    /// none when this is 0).
+    pub fn room(&self) -> usize {
+        self.generators.len() - self.m
+    }
+
+    /// The cluster cap: the most generators this clustering can ever hold.
+    pub fn cap(&self) -> usize {
+        self.generators.len()
     }
 
     /// The final clusters, for the arena's lifetime.

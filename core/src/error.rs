@@ -75,6 +75,19 @@ pub enum Error {
     },
     /// The progress callback asked to stop.
     Cancelled,
+    /// A meshing round needed more working memory than its capacity
+    /// (`Params::mesh_bytes_per_cluster`): the candidate graph is denser than
+    /// that capacity allows, typically because there are few points per cluster.
+    /// The arena itself may have had room: the capacity is what keeps
+    /// [`crate::arena_bytes`] an upper bound.
+    MeshCapacity {
+        /// The round's capacity in bytes.
+        capacity: usize,
+        /// Bytes of the request that did not fit.
+        requested: usize,
+        /// Bytes of the capacity still free at that moment.
+        available: usize,
+    },
 }
 
 /// Result alias used across core.
@@ -124,6 +137,17 @@ impl fmt::Display for Error {
                 write!(f, "{found} points given; at most {max} are supported")
             }
             Error::Cancelled => f.write_str("cancelled"),
+            Error::MeshCapacity {
+                capacity,
+                requested,
+                available,
+            } => write!(
+                f,
+                "meshing needs more than its {capacity} bytes of working memory \
+                 ({requested} more requested, {available} left): the candidate graph is too \
+                 dense, typically from too few points per cluster; use fewer clusters or \
+                 raise the meshing memory per cluster"
+            ),
         }
     }
 }

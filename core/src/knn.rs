@@ -20,7 +20,7 @@
 //! `knn(i)` plus the *reverse-only* edges (`i` is in `knn(j)` but `j` is not in
 //! `knn(i)`), kept in a compressed table: typically a third of `k` per point.
 
-use crate::arena::Arena;
+use crate::arena::{padded_bytes, Arena};
 use crate::error::{Error, Result};
 use crate::math::{dist2, V3};
 use crate::params::MAX_K;
@@ -193,12 +193,39 @@ impl Best {
     }
 }
 
-/// Bytes of scratch the grid needs for `n` points (upper bound, any occupancy).
+/// Bytes of scratch the grid needs for `n` points, whatever its occupancy: order
+/// and sorted points (16 per point), then the larger of the sort keys (8 per
+/// point, dropped before the tables) and the tables, with cells and columns at
+/// most `n`: cell keys and starts (12 per cell) and the column hash (a power of
+/// two of at least twice the columns, 16 bytes a slot: at most 64 per column).
+/// About 92 bytes per point. Keep in step with `build_grid`.
 pub fn grid_scratch_bytes(n: usize) -> usize {
-    // order 4 + sorted 12, then the larger of the sort keys (8) and the tables: cell
-    // keys 8 + cell starts 4 + columns up to 4 entries of 16 bytes per column
-    // (a power of two >= 2 columns), with cells and columns <= n; plus slack.
-    n * (4 + 12) + (n * 8).max(n * (8 + 4 + 64)) + 4 * 64
+    let slots = n
+        .saturating_mul(2)
+        .checked_next_power_of_two()
+        .unwrap_or(usize::MAX);
+    let tables = padded_bytes::<u64>(n)
+        .saturating_add(padded_bytes::<u32>(n.saturating_add(1)))
+        .saturating_add(padded_bytes::<(u64, u32)>(slots));
+    padded_bytes::<u32>(n)
+        .saturating_add(padded_bytes::<V3>(n))
+        .saturating_add(padded_bytes::<u64>(n).max(tables))
+}
+
+/// Arena bytes of the neighbour stage for `n` points and `k` neighbours:
+/// `(peak, kept)`. Kept: the k-NN table (`4 k` per point) and the reverse-only
+/// table, at its worst (`4 (n + 1) + 4 k n`: no neighbour relation mutual; real
+/// clouds have one or two reverse-only edges per point, but a cloud can have
+/// almost none mutual). The peak adds the larger of the grid scratch and the
+/// reverse table's cursor (4 per point). Keep in step with
+/// [`try_neighbours_in`] and `reverse_edges_in`.
+pub fn neighbours_bytes(n: usize, k: usize) -> (usize, usize) {
+    let nk = n.saturating_mul(k);
+    let knn = padded_bytes::<u32>(nk);
+    let rev = padded_bytes::<u32>(n.saturating_add(1)).saturating_add(padded_bytes::<u32>(nk));
+    let during_rev = rev.saturating_add(padded_bytes::<u32>(n));
+    let peak = knn.saturating_add(grid_scratch_bytes(n).max(during_rev));
+    (peak, knn.saturating_add(rev))
 }
 
 /// Compute the k nearest neighbours of every point and the reverse-edge table.

@@ -7,6 +7,23 @@
 //! over a caller-owned buffer, and running out of it is an [`Error::Exhausted`]
 //! value, never a panic. Core never panics on any input.
 //!
+//! How big a buffer: [`arena_bytes`]`(n, &params)` is always enough for
+//! [`reconstruct`] on `n` points (an upper bound worked out stage by stage in
+//! [`budget`], not an estimate), about 140 bytes per point at k = 12 plus some 2
+//! KiB per cluster.
+//!
+//! ```
+//! use core::mem::MaybeUninit;
+//! use vsaqem_core::{arena_bytes, reconstruct, Arena, Params, Silent};
+//! # let mut points = [[0.0f32; 3]; 3000];
+//! # vsaqem_core::sample::fill(vsaqem_core::sample::Shape::Sphere, 1, 0.0, &mut points);
+//! let params = Params { clusters: 100, ..Params::default() };
+//! let mut buf = vec![MaybeUninit::uninit(); arena_bytes(points.len(), &params)];
+//! let arena = Arena::new(&mut buf);
+//! let out = reconstruct(&arena, &points, None, &params, &mut Silent).unwrap();
+//! assert!(!out.mesh.triangles.is_empty());
+//! ```
+//!
 //! ## Conventions
 //! - Coordinates are `f32` and expected in `[-1, 1]^3`: the host centres and scales
 //!   its `f64` input into that cube and maps results back. Core works on any finite
@@ -31,6 +48,7 @@ extern crate std;
 
 pub mod arena;
 pub mod border;
+pub mod budget;
 pub mod candidates;
 pub mod cluster;
 pub mod error;
@@ -48,6 +66,7 @@ pub mod split;
 pub mod validate;
 
 pub use arena::{Alloc, Arena, Exhausted, Scratch};
+pub use budget::{arena_bytes, cluster_bytes, mesh_capacity};
 pub use cluster::{ClusterStats, Clusters};
 pub use error::{Degeneracy, Error, Result};
 pub use knn::Neighbours;
@@ -228,6 +247,12 @@ pub struct Reconstruction<'a> {
 /// a 2-manifold oriented mesh (DESIGN steps 8-11). Where the mesh leaves clusters
 /// (data) uncovered, those clusters are split and the mesh is made again, up to
 /// `params.refine_rounds` times.
+///
+/// Memory: never more than [`arena_bytes`]`(points.len(), params)` beyond what
+/// `arena` already holds, so a buffer of that size never runs out. A candidate
+/// graph denser than the meshing capacity allows
+/// ([`Params::mesh_bytes_per_cluster`]) fails with [`Error::MeshCapacity`], even in
+/// a larger buffer: the outcome never depends on the buffer's size.
 pub fn reconstruct<'a>(
     arena: &'a Arena,
     points: &[V3],
@@ -235,34 +260,71 @@ pub fn reconstruct<'a>(
     params: &Params,
     progress: &mut dyn Progress,
 ) -> Result<Reconstruction<'a>> {
+    // Meshing may use what the budget leaves (at least its capacity, more where
+    // the earlier stages used less than their worst case), never more: so the
+    // budget holds, and the outcome does not depend on the buffer's size.
+    let end = arena
+        .used()
+        .saturating_add(budget::reconstruct_bound(points.len(), params));
     let (open, mut state) = cluster_stages(arena, points, normals, params, progress)?;
+    // Clusters a round leaves without a face, for refinement: one buffer for all
+    // rounds, so a round leaves nothing behind but, when it is the last, the mesh.
+    let uncovered = arena.try_alloc_slice::<u32>(state.cap(), 0)?;
     let mut rounds = 0;
     let mut added = 0;
+    let mut last = false;
     let (mesh, meshing) = loop {
-        let (mesh, stats, uncovered) = mesh_round(
-            arena,
-            points,
-            &open.neighbours,
-            &open.planes,
-            open.bounds.diag,
-            &state.view(),
-            params,
-            progress,
-        )?;
-        if uncovered.is_empty() || rounds >= params.refine_rounds {
+        // The last round writes the mesh out; an earlier one only when it covers
+        // every cluster (otherwise refinement follows and the mesh would be waste).
+        last |= rounds >= params.refine_rounds || state.room() == 0;
+        let output = if last {
+            mesh::Output::Always
+        } else {
+            mesh::Output::IfCovered
+        };
+        let start = arena.used();
+        let (round, over) = arena.with_ceiling(end, || {
+            mesh_round(
+                arena,
+                points,
+                &open.neighbours,
+                &open.planes,
+                open.bounds.diag,
+                &state.view(),
+                params,
+                output,
+                uncovered,
+                progress,
+            )
+        });
+        let (mesh, stats) = match round {
+            Err(Error::Exhausted(e)) if over => {
+                return Err(Error::MeshCapacity {
+                    capacity: end.saturating_sub(start),
+                    requested: e.requested,
+                    available: e.available,
+                })
+            }
+            other => other?,
+        };
+        if let Some(mesh) = mesh {
             break (mesh, stats);
         }
+        let count = stats.mesh.uncovered_clusters as usize;
         let more = state.refine(
             arena,
             points,
             &open.neighbours,
             &open.planes,
-            uncovered,
+            &uncovered[..count.min(uncovered.len())],
             params,
             progress,
         )?;
         if more == 0 {
-            break (mesh, stats);
+            // Nothing to split: this round's mesh is the answer. Make it again,
+            // written out (same clusters, same mesh).
+            last = true;
+            continue;
         }
         rounds += 1;
         added += more as u32;
@@ -281,8 +343,9 @@ pub fn reconstruct<'a>(
     })
 }
 
-/// One meshing round in a scratch scope; the mesh and the list of clusters it
-/// leaves uncovered stay in the arena.
+/// One meshing round in a scratch scope: only the mesh (when `output` asks for
+/// it) stays in the arena. The clusters it leaves uncovered are written to
+/// `uncovered`.
 #[allow(clippy::too_many_arguments)]
 fn mesh_round<'a>(
     arena: &'a Arena,
@@ -292,8 +355,10 @@ fn mesh_round<'a>(
     diag: f32,
     c: &Clusters,
     params: &Params,
+    output: mesh::Output,
+    uncovered: &mut [u32],
     progress: &mut dyn Progress,
-) -> Result<(Mesh<'a>, MeshingStats, &'a [u32])> {
+) -> Result<(Option<Mesh<'a>>, MeshingStats)> {
     let gens = c.generators;
     arena.scratch(|s| {
         let p = problem_in(s, points, nb, planes, diag, c, params, progress)?;
@@ -302,12 +367,12 @@ fn mesh_round<'a>(
         progress::tick(progress, Stage::Selection, 0, nf as u64)?;
         let input = p.selection.input(params.node_limit);
         let mut cancelled = false;
-        let (selected, sel) = select::try_select_in(arena, &input, &mut |done, total| {
+        let (selected, sel) = select::try_select_in(s, &input, &mut |done, total| {
             cancelled = progress::tick(progress, Stage::Selection, done, total).is_err();
             !cancelled
         })?;
         progress::tick(progress, Stage::Output, 0, 1)?;
-        let mesh = mesh::try_mesh_in(
+        let (mesh, mesh_stats) = mesh::try_mesh_in(
             arena,
             s,
             &cand,
@@ -318,26 +383,9 @@ fn mesh_round<'a>(
             p.moved,
             params.max_hole,
             diag,
+            output,
+            uncovered,
         )?;
-        // Clusters with points but no face.
-        let uncovered = s.scratch(|t| -> Result<&'a [u32]> {
-            let used = t.try_alloc_slice::<bool>(gens.len(), false)?;
-            for &cl in mesh.vertex_cluster {
-                used[cl as usize] = true;
-            }
-            let count = (0..members.len())
-                .filter(|&j| !members.of(j).is_empty() && !used[j])
-                .count();
-            let list = arena.try_alloc_slice::<u32>(count, 0)?;
-            let mut w = 0;
-            for j in 0..members.len() {
-                if !members.of(j).is_empty() && !used[j] {
-                    list[w] = j as u32;
-                    w += 1;
-                }
-            }
-            Ok(list)
-        })?;
         progress::tick(progress, Stage::Output, 1, 1)?;
         Ok((
             mesh,
@@ -350,10 +398,9 @@ fn mesh_round<'a>(
                 merged_generators: cand.merged,
                 mean_supports: scores.mean_supports,
                 selection: sel,
-                mesh: mesh.stats,
+                mesh: mesh_stats,
                 ..MeshingStats::default()
             },
-            uncovered,
         ))
     })
 }
@@ -499,28 +546,4 @@ pub fn selection_problem<'a>(
             penalties: arena.try_alloc_copy(p.penalties)?,
         })
     })
-}
-
-/// Arena bytes that are always enough for [`cluster`] on `n` points with `params`:
-/// the largest sum of live allocations over the stages, with the reverse-edge table
-/// at its worst case (no mutual neighbours). See `../shared/DESIGN.md`, "Memory".
-pub fn cluster_bytes(n: usize, params: &Params) -> usize {
-    let k = params.k.clamp(1, MAX_K);
-    let n = n.max(validate::MIN_POINTS);
-    // Every component gets a generator, and a component has at least k + 1 points.
-    let cap = (params.cluster_cap() as usize).max(n / (k + 1) + 1).min(n);
-    let knn = 4 * k * n + 64;
-    let rev = 4 * (n + 1) + 4 * k * n + 128;
-    let neighbour_stage = knn + (knn::grid_scratch_bytes(n)).max(rev + 4 * n);
-    let planes = 16 * n + 64;
-    let cluster_stage = knn + rev + planes + cluster::cluster_bytes(n, cap);
-    neighbour_stage.max(cluster_stage)
-}
-
-/// Arena bytes for [`reconstruct`] on `n` points: [`cluster_bytes`] plus the
-/// meshing stages, estimated at 8 KiB per cluster of the cap and 4 bytes per point
-/// (member lists). The meshing part is an estimate, not yet a proven bound.
-pub fn reconstruct_bytes(n: usize, params: &Params) -> usize {
-    let cap = (params.cluster_cap() as usize).max(1);
-    cluster_bytes(n, params) + 4 * n + 8192 * cap
 }

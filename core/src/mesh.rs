@@ -375,10 +375,23 @@ fn add(a: V3, b: V3) -> V3 {
     [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
 }
 
+/// When [`try_mesh_in`] writes the mesh out.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Output {
+    /// Always.
+    Always,
+    /// Only when every cluster with points has a face: a round that leaves data
+    /// uncovered is redone after refinement, and its mesh would be thrown away.
+    IfCovered,
+}
+
 /// Build the mesh of the `selected` candidate facets, closing boundary loops of
 /// at most `max_hole` edges (0: none). `diag` is the bounding-box diagonal (for
 /// the degeneracy tolerance of filled faces). Working memory comes from `work`;
-/// the result is allocated in `out` (which may be the same allocator).
+/// the result is allocated in `out` (which may be the same allocator), unless
+/// `output` says it is not wanted (then `None`, and `out` is untouched). The
+/// clusters with points but no face are written to the front of `uncovered`
+/// (their count is `stats.uncovered_clusters`), as far as it has room.
 #[allow(clippy::too_many_arguments)]
 pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
     out: &'o Arena<'b>,
@@ -391,10 +404,12 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
     moved: &[V3],
     max_hole: u32,
     diag: f32,
-) -> Result<Mesh<'o>> {
+    output: Output,
+    uncovered: &mut [u32],
+) -> Result<(Option<Mesh<'o>>, MeshStats)> {
     let m = generators.len();
     let ne = cand.edges.len();
-    work.scratch(|s| -> Result<Mesh<'o>> {
+    work.scratch(|s| -> Result<(Option<Mesh<'o>>, MeshStats)> {
         // Faces (cluster triples); a face that would be an edge's third is dropped.
         let keep = s.try_alloc_slice::<bool>(selected.len(), false)?;
         let (nf, dropped, boundary0) = s.scratch(|t| -> Result<(usize, u32, usize)> {
@@ -518,10 +533,47 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
                 nv += 1;
             }
         }
+        let used = s.try_alloc_slice::<bool>(m, false)?;
+        for face in faces.iter() {
+            for &cl in face {
+                used[cl as usize] = true;
+            }
+        }
+        let distinct = used.iter().filter(|&&u| u).count() as u32;
+        let mut uncovered_clusters = 0;
+        let mut uncovered_points = 0;
+        for j in 0..members.len().min(m) {
+            let size = members.of(j).len() as u32;
+            if size > 0 && !used[j] {
+                if let Some(slot) = uncovered.get_mut(uncovered_clusters) {
+                    *slot = j as u32;
+                }
+                uncovered_clusters += 1;
+                uncovered_points += size;
+            }
+        }
+        let stats = MeshStats {
+            vertices: nv,
+            faces: nf as u32,
+            boundary_edges: boundary,
+            components,
+            non_orientable,
+            split_vertices: nv - distinct,
+            dropped_faces: dropped,
+            holes_filled: filled.holes,
+            repairs: repaired,
+            filled_faces: filled.faces as u32,
+            holes_left: filled.left,
+            open_loops: filled.open,
+            uncovered_clusters: uncovered_clusters as u32,
+            uncovered_points,
+        };
+        if output == Output::IfCovered && uncovered_clusters > 0 {
+            return Ok((None, stats));
+        }
         let vertices = out.try_alloc_slice::<V3>(nv as usize, [0.0; 3])?;
         let vertex_cluster = out.try_alloc_slice::<u32>(nv as usize, 0)?;
         let triangles = out.try_alloc_slice::<[u32; 3]>(nf, [0; 3])?;
-        let used = s.try_alloc_slice::<bool>(m, false)?;
         for f in 0..nf {
             for k in 0..3 {
                 let v = vertex_of_root[find(parent, 3 * f + k)];
@@ -535,40 +587,15 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
                 };
                 vertex_cluster[v as usize] = cl;
                 triangles[f][k] = v;
-                used[cl as usize] = true;
             }
         }
-        let distinct = used.iter().filter(|&&u| u).count() as u32;
-        let mut uncovered_clusters = 0;
-        let mut uncovered_points = 0;
-        for j in 0..members.len().min(m) {
-            let size = members.of(j).len() as u32;
-            if size > 0 && !used[j] {
-                uncovered_clusters += 1;
-                uncovered_points += size;
-            }
-        }
-        Ok(Mesh {
+        let mesh = Mesh {
             vertices,
             triangles,
             vertex_cluster,
-            stats: MeshStats {
-                vertices: nv,
-                faces: nf as u32,
-                boundary_edges: boundary,
-                components,
-                non_orientable,
-                split_vertices: nv - distinct,
-                dropped_faces: dropped,
-                holes_filled: filled.holes,
-                repairs: repaired,
-                filled_faces: filled.faces as u32,
-                holes_left: filled.left,
-                open_loops: filled.open,
-                uncovered_clusters,
-                uncovered_points,
-            },
-        })
+            stats,
+        };
+        Ok((Some(mesh), stats))
     })
 }
 

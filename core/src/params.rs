@@ -68,6 +68,21 @@ pub struct Params {
     /// Rounds of refinement where clusters are left out of the mesh (each round
     /// splits them and selects again). Default 0.
     pub refine_rounds: u32,
+    /// Working memory reserved for a meshing round (candidate edges and facets,
+    /// scores, selection, output), in bytes per cluster of the cap
+    /// (`max_clusters`, or twice `clusters`), on top of 4 bytes per point: a
+    /// capacity, like a buffer size. The candidate graph's size depends on the
+    /// data, not only on `n` and these parameters (about 3 candidate facets per
+    /// cluster on a well-sampled surface, far more with few points per cluster
+    /// or thin parts), so [`crate::arena_bytes`] can promise a bound only
+    /// because core holds meshing to it: a round may use this, plus whatever
+    /// the earlier stages left of their worst cases, and a denser graph fails
+    /// with [`Error::MeshCapacity`], whatever the buffer's size. 0 (the default)
+    /// means `470 √k` bytes (1628 at k = 12; the candidate graph grows about
+    /// like the neighbourhood's radius). Chosen from measurements: enough for
+    /// every test cloud with 12 or more points per cluster of the cap, while
+    /// [`crate::arena_bytes`] stays within twice the measured peak.
+    pub mesh_bytes_per_cluster: u32,
 }
 
 impl Default for Params {
@@ -91,6 +106,7 @@ impl Default for Params {
             border_angle: 150.0,
             node_limit: 200,
             refine_rounds: 0,
+            mesh_bytes_per_cluster: 0,
         }
     }
 }
@@ -102,6 +118,17 @@ impl Params {
             self.clusters.saturating_mul(2)
         } else {
             self.max_clusters.max(self.clusters)
+        }
+    }
+
+    /// Meshing working memory per cluster of the cap, in bytes (see
+    /// [`Params::mesh_bytes_per_cluster`]).
+    pub fn mesh_capacity_per_cluster(&self) -> usize {
+        if self.mesh_bytes_per_cluster == 0 {
+            let k = self.k.clamp(1, MAX_K) as f32;
+            (470.0 * libm::sqrtf(k)) as usize
+        } else {
+            self.mesh_bytes_per_cluster as usize
         }
     }
 

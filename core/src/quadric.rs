@@ -76,6 +76,11 @@ impl Planes<'_> {
     }
 }
 
+/// Arena bytes [`try_planes_in`] keeps (and uses) for `n` points.
+pub fn planes_bytes(n: usize) -> usize {
+    crate::arena::padded_bytes::<Plane>(n)
+}
+
 /// Compute every point's plane factor. O(n k) time; 16 bytes per point.
 pub fn try_planes_in<'a>(
     arena: &'a Arena,

@@ -16,9 +16,10 @@
 //! per facet: the reference's weighting (coverage scaled by supports per facet),
 //! divided through by `S` so both terms are O(1). Every score is finite.
 //!
-//! Memory: the scores (4 bytes per facet each for score, fitting and coverage) and
-//! a scratch buffer of projected supports (8 bytes per point of the largest
-//! facet). Cost: O(Σ supports × 45) per run, in practice ~100 supports per facet.
+//! Memory: the scores (4 bytes per facet each for score, fitting and coverage);
+//! the coverage lattice of the facet being scored lives on the stack (a 45-bit
+//! mask), so no scratch grows with the size of a cluster. Cost: O(Σ supports ×
+//! 45) per run, in practice ~100 supports per facet.
 
 use crate::arena::Alloc;
 use crate::candidates::{Candidates, Members};
@@ -145,55 +146,47 @@ pub fn try_scores_in<'a, 'b, A: Alloc<'b>>(
     let coverage = arena.try_alloc_slice::<f32>(f, 0.0)?;
     let eps = (params.epsilon * diag).max(f32::MIN_POSITIVE);
     let radius = 0.5 * params.alpha_scale * spacing;
-    let largest = (0..members.len())
-        .map(|j| members.of(j).len())
-        .max()
-        .unwrap_or(0);
     let mut total_supports = 0u64;
-    arena.scratch(|s| -> Result<()> {
-        let uv = s.try_alloc_slice::<[f32; 2]>(3 * largest, [0.0; 2])?;
-        for (i, t) in cand.facets.iter().enumerate() {
-            let (a, b, c) = (
-                generators[t[0] as usize],
-                generators[t[1] as usize],
-                generators[t[2] as usize],
-            );
-            // A frame in the triangle's plane: e1 along ab, e2 perpendicular.
-            let ab = sub(b, a);
-            let n = cross(ab, sub(c, a));
-            let (lab, ln) = (norm(ab), norm(n));
-            if !(lab > 0.0 && ln > 0.0) {
-                continue;
-            }
-            let e1 = ab.map(|v| v / lab);
-            let nn = n.map(|v| v / ln);
-            let e2 = cross(nn, e1);
-            let mut fit = 0.0f32;
-            let mut count = 0usize;
-            for &cl in t {
-                for &p in members.of(cl as usize) {
-                    let q = points[p as usize];
-                    let d2 = point_triangle_dist2(q, a, b, c);
-                    if d2 < eps * eps {
-                        fit += 1.0 - libm::sqrtf(d2) / eps;
-                        let r = sub(q, a);
-                        uv[count] = [dot(r, e1), dot(r, e2)];
-                        count += 1;
-                    }
+    for (i, t) in cand.facets.iter().enumerate() {
+        let (a, b, c) = (
+            generators[t[0] as usize],
+            generators[t[1] as usize],
+            generators[t[2] as usize],
+        );
+        // A frame in the triangle's plane: e1 along ab, e2 perpendicular.
+        let ab = sub(b, a);
+        let n = cross(ab, sub(c, a));
+        let (lab, ln) = (norm(ab), norm(n));
+        if !(lab > 0.0 && ln > 0.0) {
+            continue;
+        }
+        let e1 = ab.map(|v| v / lab);
+        let nn = n.map(|v| v / ln);
+        let e2 = cross(nn, e1);
+        let mut lattice = Lattice::new(
+            [0.0, 0.0],
+            [lab, 0.0],
+            [dot(sub(c, a), e1), dot(sub(c, a), e2)],
+            radius,
+        );
+        let mut fit = 0.0f32;
+        let mut count = 0u64;
+        for &cl in t {
+            for &p in members.of(cl as usize) {
+                let q = points[p as usize];
+                let d2 = point_triangle_dist2(q, a, b, c);
+                if d2 < eps * eps {
+                    fit += 1.0 - libm::sqrtf(d2) / eps;
+                    let r = sub(q, a);
+                    lattice.cover([dot(r, e1), dot(r, e2)]);
+                    count += 1;
                 }
             }
-            total_supports += count as u64;
-            fitting[i] = fit;
-            coverage[i] = lattice_coverage(
-                &uv[..count],
-                [0.0, 0.0],
-                [lab, 0.0],
-                [dot(sub(c, a), e1), dot(sub(c, a), e2)],
-                radius,
-            );
         }
-        Ok(())
-    })?;
+        total_supports += count;
+        fitting[i] = fit;
+        coverage[i] = lattice.share();
+    }
     let mean = if f > 0 {
         total_supports as f32 / f as f32
     } else {
@@ -212,6 +205,61 @@ pub fn try_scores_in<'a, 'b, A: Alloc<'b>>(
     })
 }
 
+/// The coverage samples of one triangle (2D): `LATTICE` barycentric steps per
+/// side, 45 samples, and which of them lie within `radius` of a support seen so
+/// far. Supports are fed one at a time, so none need storing.
+struct Lattice {
+    samples: [[f32; 2]; SAMPLES],
+    covered: u64,
+    r2: f32,
+}
+
+/// Samples of the lattice: `(LATTICE + 1)(LATTICE + 2) / 2`.
+const SAMPLES: usize = (LATTICE + 1) * (LATTICE + 2) / 2;
+const ALL: u64 = (1 << SAMPLES) - 1;
+
+impl Lattice {
+    fn new(a: [f32; 2], b: [f32; 2], c: [f32; 2], radius: f32) -> Self {
+        let mut samples = [[0.0; 2]; SAMPLES];
+        let mut x = 0;
+        for i in 0..=LATTICE {
+            for j in 0..=(LATTICE - i) {
+                let (u, v) = (i as f32 / LATTICE as f32, j as f32 / LATTICE as f32);
+                let w = 1.0 - u - v;
+                samples[x] = [
+                    w * a[0] + u * b[0] + v * c[0],
+                    w * a[1] + u * b[1] + v * c[1],
+                ];
+                x += 1;
+            }
+        }
+        Lattice {
+            samples,
+            covered: 0,
+            r2: radius * radius,
+        }
+    }
+
+    /// Mark the samples within the radius of support `q`.
+    fn cover(&mut self, q: [f32; 2]) {
+        let mut open = !self.covered & ALL;
+        while open != 0 {
+            let x = open.trailing_zeros() as usize;
+            open &= open - 1;
+            let s = self.samples[x];
+            let (dx, dy) = (q[0] - s[0], q[1] - s[1]);
+            if dx * dx + dy * dy <= self.r2 {
+                self.covered |= 1 << x;
+            }
+        }
+    }
+
+    /// Share of the samples covered.
+    fn share(&self) -> f32 {
+        self.covered.count_ones() as f32 / SAMPLES as f32
+    }
+}
+
 /// Share of the lattice samples of triangle `(a, b, c)` (2D) within `radius` of
 /// some support.
 pub fn lattice_coverage(
@@ -221,27 +269,11 @@ pub fn lattice_coverage(
     c: [f32; 2],
     radius: f32,
 ) -> f32 {
-    let r2 = radius * radius;
-    let mut covered = 0u32;
-    let mut total = 0u32;
-    for i in 0..=LATTICE {
-        for j in 0..=(LATTICE - i) {
-            let (u, v) = (i as f32 / LATTICE as f32, j as f32 / LATTICE as f32);
-            let w = 1.0 - u - v;
-            let s = [
-                w * a[0] + u * b[0] + v * c[0],
-                w * a[1] + u * b[1] + v * c[1],
-            ];
-            total += 1;
-            if supports.iter().any(|q| {
-                let (dx, dy) = (q[0] - s[0], q[1] - s[1]);
-                dx * dx + dy * dy <= r2
-            }) {
-                covered += 1;
-            }
-        }
+    let mut lattice = Lattice::new(a, b, c, radius);
+    for &q in supports {
+        lattice.cover(q);
     }
-    covered as f32 / total as f32
+    lattice.share()
 }
 
 #[cfg(test)]

@@ -105,9 +105,7 @@
 //! in one component at 1000 clusters) the root and 200 nodes take 60-75 ms and
 //! end 0.1-1 % from the bound; 250-500 clusters are usually proved optimal.
 
-use core::mem::{align_of, size_of};
-
-use crate::arena::Arena;
+use crate::arena::Alloc;
 use crate::error::{Error, Result};
 
 /// Edge mask "degree 0 or 2": a closed 2-manifold edge (seed Eq. 8).
@@ -252,9 +250,7 @@ const REPORT_EVERY: u64 = 1024;
 
 /// Bytes for `count` values of `T`, worst-case alignment padding included.
 fn arr<T>(count: usize) -> usize {
-    count
-        .saturating_mul(size_of::<T>())
-        .saturating_add(align_of::<T>() - 1)
+    crate::arena::padded_bytes::<T>(count)
 }
 
 /// An upper bound on the arena bytes [`try_select_in`] uses for `facets` facets
@@ -1662,8 +1658,9 @@ impl<'a> Solver<'a> {
     }
 }
 
-/// Select facets (see the module docs). Returns one flag per facet, persistent in
-/// `arena`, and the run's statistics. The selection always satisfies every edge's
+/// Select facets (see the module docs). Returns one flag per facet, allocated from
+/// `arena` (an [`Arena`](crate::Arena)'s persistent end, or a scratch scope that
+/// outlives the call), and the run's statistics. The selection always satisfies every edge's
 /// mask, also when the node limit cuts the search short.
 ///
 /// `progress(done, total)` is told how many of the facets are settled, at the
@@ -1675,8 +1672,8 @@ impl<'a> Solver<'a> {
 /// or non-finite penalty, or mismatched lengths; [`Error::Exhausted`] when the arena
 /// has less than [`select_bytes`] free. An empty problem is not an error: it gives
 /// an empty selection.
-pub fn try_select_in<'a>(
-    arena: &'a Arena<'_>,
+pub fn try_select_in<'a, 'b, A: Alloc<'b>>(
+    arena: &'a A,
     input: &SelectInput<'_>,
     progress: &mut dyn FnMut(u64, u64) -> bool,
 ) -> Result<(&'a mut [bool], SelectStats)> {
@@ -1986,6 +1983,7 @@ pub fn try_select_in<'a>(
 mod tests {
     extern crate std;
     use super::*;
+    use crate::arena::Arena;
     use core::mem::MaybeUninit;
     use std::vec;
     use std::vec::Vec;

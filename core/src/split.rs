@@ -15,14 +15,25 @@
 //! Cost: O(n k) plus a sort of the candidates; memory: 4 bytes per point (member
 //! lists) plus O(clusters), all scratch.
 
-use crate::arena::Scratch;
+use crate::arena::{padded_bytes, Scratch};
 use crate::cluster::Ctx;
 use crate::error::Result;
 use crate::math::V3;
 
-/// Scratch bytes of one batch.
-pub fn split_bytes(n: usize, cap: usize) -> usize {
-    n * 4 + cap * (4 + 4 + 4 + 4 + 4 + 1) + 4 * 64
+/// Scratch bytes of one batch over at most `m` clusters: member lists (4 per
+/// point) and 21 bytes per cluster. Keep in step with `try_split_in`.
+pub fn split_bytes(n: usize, m: usize) -> usize {
+    [
+        padded_bytes::<u32>(m),                   // worst
+        padded_bytes::<f32>(m),                   // worst_e
+        padded_bytes::<u32>(m.saturating_add(1)), // start
+        padded_bytes::<u32>(m),                   // cand
+        padded_bytes::<u32>(n),                   // members
+        padded_bytes::<u32>(m),                   // cursor
+        padded_bytes::<bool>(m),                  // blocked
+    ]
+    .iter()
+    .fold(0usize, |a, &b| a.saturating_add(b))
 }
 
 /// Squared error of point `i` under generator `c` (see the module docs).

@@ -11,7 +11,7 @@ use vsaqem::cmd::arena_buffer;
 use vsaqem::input::prepare;
 use vsaqem::io::read_cloud;
 use vsaqem::progress::StageClock;
-use vsaqem_core::{reconstruct, reconstruct_bytes, Arena, Params};
+use vsaqem_core::{arena_bytes, reconstruct, Arena, Params};
 
 fn main() {
     let mut counts: Vec<u32> = std::env::args()
@@ -53,7 +53,7 @@ fn main() {
             let mut best: Option<(Duration, Vec<(&'static str, Duration)>)> = None;
             let mut last = None;
             for _ in 0..3 {
-                let mut buf = arena_buffer(reconstruct_bytes(input.points.len(), &params));
+                let mut buf = arena_buffer(arena_bytes(input.points.len(), &params));
                 let arena = Arena::new(&mut buf);
                 let mut clock = StageClock::new(false);
                 let out = reconstruct(

@@ -1,6 +1,6 @@
 //! `vsaqem cluster`: the input points coloured by cluster, plus the generators.
 
-use crate::cmd::{arena_buffer, label_colour};
+use crate::cmd::{arena_buffer, label_colour, MemoryArgs};
 use crate::input::{self, Prepared};
 use crate::io::{write_atomic, write_points_ply};
 use crate::json;
@@ -98,6 +98,8 @@ pub struct Cmd {
     pub input: InputArgs,
     #[command(flatten)]
     pub cluster: ClusterArgs,
+    #[command(flatten)]
+    pub memory: MemoryArgs,
     /// Output PLY: input points coloured by cluster (property `cluster`), then the
     /// generators in black.
     #[arg(short, long)]
@@ -130,7 +132,10 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
     let mut clock = StageClock::new(!cmd.quiet);
     let input = read_input(&cmd.input, &mut clock)?;
     let params = cmd.cluster.params();
-    let bytes = vsaqem_core::cluster_bytes(input.points.len(), &params);
+    let n = input.points.len();
+    let bytes = cmd
+        .memory
+        .arena_size(vsaqem_core::cluster_bytes(n, &params), n)?;
     let mut buf = arena_buffer(bytes);
     let arena = vsaqem_core::Arena::new(&mut buf);
     let out = vsaqem_core::cluster(

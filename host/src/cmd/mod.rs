@@ -5,7 +5,83 @@ pub mod eval;
 pub mod reconstruct;
 pub mod render;
 
+use clap::Args;
 use std::mem::MaybeUninit;
+
+/// The arena budget of a run.
+#[derive(Args, Debug, Clone)]
+pub struct MemoryArgs {
+    /// Arena size in bytes (suffixes KiB, MiB, GiB; e.g. 64MiB, 1.5GiB, 200000).
+    /// Default: the most this run can need, as core bounds it for these points
+    /// and parameters. Less than that fails at once, naming the size needed;
+    /// more is allowed but never used.
+    #[arg(long, value_name = "BYTES", value_parser = parse_bytes)]
+    pub memory: Option<usize>,
+}
+
+impl MemoryArgs {
+    /// The arena size to use when the run needs `needed` bytes at most: the
+    /// `--memory` budget, checked against `needed` before any work, or `needed`.
+    pub fn arena_size(&self, needed: usize, points: usize) -> Result<usize, String> {
+        match self.memory {
+            None => Ok(needed),
+            Some(given) if given >= needed => Ok(given),
+            Some(given) => Err(format!(
+                "--memory {given} bytes ({:.1} MiB) is too small: this run needs {needed} \
+                 bytes ({:.1} MiB) for {points} points with these parameters; give at \
+                 least that, or use fewer clusters or neighbours",
+                mib(given),
+                mib(needed)
+            )),
+        }
+    }
+}
+
+fn mib(bytes: usize) -> f64 {
+    bytes as f64 / (1u64 << 20) as f64
+}
+
+/// A byte count: a whole number of bytes, or a number with a unit: `KiB`, `MiB`,
+/// `GiB` (also `K`, `M`, `G`), `KB`, `MB`, `GB` (powers of 1000) or `B`, any
+/// case, e.g. `64MiB`, `1.5GiB`, `200000`. Fractions of a byte are dropped.
+pub fn parse_bytes(s: &str) -> Result<usize, String> {
+    let t = s.trim();
+    let at = t.find(|c: char| c.is_ascii_alphabetic()).unwrap_or(t.len());
+    let (number, unit) = (t[..at].trim(), t[at..].trim());
+    let scale: u64 = match unit.to_ascii_lowercase().as_str() {
+        "" | "b" => 1,
+        "k" | "kib" => 1 << 10,
+        "m" | "mib" => 1 << 20,
+        "g" | "gib" => 1 << 30,
+        "kb" => 1_000,
+        "mb" => 1_000_000,
+        "gb" => 1_000_000_000,
+        _ => {
+            return Err(format!(
+                "'{s}': unknown unit '{unit}' (use bytes, KiB, MiB or GiB, e.g. 64MiB)"
+            ))
+        }
+    };
+    let too_large = || format!("'{s}': too large for this machine");
+    if !number.is_empty() && number.bytes().all(|b| b.is_ascii_digit()) {
+        let whole: u64 = number.parse().map_err(|_| too_large())?;
+        let bytes = whole.checked_mul(scale).ok_or_else(too_large)?;
+        return usize::try_from(bytes).map_err(|_| too_large());
+    }
+    let value: f64 = number
+        .parse()
+        .ok()
+        .filter(|v: &f64| v.is_finite() && *v >= 0.0 && !number.starts_with(['+', '-']))
+        .ok_or_else(|| format!("'{s}': not a size (a number of bytes, or e.g. 64MiB)"))?;
+    if scale == 1 && value.fract() != 0.0 {
+        return Err(format!("'{s}': not a whole number of bytes"));
+    }
+    let bytes = (value * scale as f64).floor();
+    if bytes >= usize::MAX as f64 || bytes >= (1u64 << 53) as f64 {
+        return Err(too_large());
+    }
+    Ok(bytes as usize)
+}
 
 /// A buffer of `bytes` uninitialised bytes for the core arena. The pages are not
 /// touched until core uses them, so the process's resident memory follows the
@@ -50,4 +126,38 @@ pub fn publish(
             .map_err(|e| e.to_string())?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_bytes;
+
+    #[test]
+    fn sizes_parse_with_and_without_units() {
+        assert_eq!(parse_bytes("200000"), Ok(200_000));
+        assert_eq!(parse_bytes("64MiB"), Ok(64 << 20));
+        assert_eq!(parse_bytes("1.5GiB"), Ok(3 << 29));
+        assert_eq!(parse_bytes("512 KiB"), Ok(512 << 10));
+        assert_eq!(parse_bytes("2k"), Ok(2048));
+        assert_eq!(parse_bytes("3MB"), Ok(3_000_000));
+        assert_eq!(parse_bytes("100b"), Ok(100));
+        assert_eq!(parse_bytes("0.5KiB"), Ok(512));
+        assert_eq!(parse_bytes("1.0001KiB"), Ok(1024));
+        for bad in [
+            "",
+            "MiB",
+            "-5",
+            "+5",
+            "1.5",
+            "12 parsecs",
+            "1e400GiB",
+            "nan",
+            "0x10",
+        ] {
+            let e = parse_bytes(bad).unwrap_err();
+            assert!(e.contains(&format!("'{bad}'")), "{bad}: {e}");
+        }
+        assert!(parse_bytes("99999999999999999999999").is_err());
+        assert!(parse_bytes("99999999999GiB").is_err());
+    }
 }

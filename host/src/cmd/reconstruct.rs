@@ -1,7 +1,7 @@
 //! `vsaqem reconstruct`: point cloud to mesh (PLY, OBJ or OFF by extension).
 
-use crate::cmd::arena_buffer;
 use crate::cmd::cluster::{read_input, ClusterArgs, InputArgs};
+use crate::cmd::{arena_buffer, MemoryArgs};
 use crate::input::Prepared;
 use crate::io::{write_atomic, write_mesh, MeshFormat};
 use crate::json;
@@ -44,6 +44,11 @@ pub struct MeshArgs {
     /// Refinement rounds where parts of the data are left out of the mesh.
     #[arg(long, default_value_t = Params::default().refine_rounds)]
     pub refine_rounds: u32,
+    /// Working memory of a meshing round, in bytes per cluster of the cap
+    /// (0: 470 times the square root of --knn, 1628 at k = 12). A candidate graph
+    /// denser than that fails; raise it for clouds with few points per cluster.
+    #[arg(long, default_value_t = Params::default().mesh_bytes_per_cluster)]
+    pub mesh_bytes_per_cluster: u32,
 }
 
 /// `vsaqem reconstruct`.
@@ -55,6 +60,8 @@ pub struct Cmd {
     pub cluster: ClusterArgs,
     #[command(flatten)]
     pub mesh: MeshArgs,
+    #[command(flatten)]
+    pub memory: MemoryArgs,
     /// Output mesh: .ply, .obj or .off.
     #[arg(short, long, default_value = "mesh.ply")]
     pub output: PathBuf,
@@ -79,6 +86,7 @@ impl Cmd {
             max_hole: self.mesh.max_hole,
             border_angle: self.mesh.border_angle,
             refine_rounds: self.mesh.refine_rounds,
+            mesh_bytes_per_cluster: self.mesh.mesh_bytes_per_cluster,
             ..self.cluster.params()
         }
     }
@@ -91,45 +99,40 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
     let mut clock = StageClock::new(!cmd.quiet);
     let input = read_input(&cmd.input, &mut clock)?;
     let params = cmd.params();
-    let mut bytes = vsaqem_core::reconstruct_bytes(input.points.len(), &params);
-    loop {
-        let mut buf = arena_buffer(bytes);
-        let arena = vsaqem_core::Arena::new(&mut buf);
-        let out = vsaqem_core::reconstruct(
-            &arena,
-            &input.points,
-            input.normals.as_deref(),
-            &params,
-            &mut clock,
-        );
-        clock.finish();
-        let out = match out {
-            Err(Error::Exhausted(e)) if bytes < usize::MAX / 4 => {
-                // The meshing part of the budget is an estimate: retry bigger.
-                eprintln!(
-                    "note: arena of {bytes} bytes was too small ({e}); retrying with {}",
-                    bytes * 2
-                );
-                bytes *= 2;
-                clock = StageClock::new(!cmd.quiet);
-                continue;
-            }
-            other => other.map_err(|e| format!("{}: {e}", input.name))?,
-        };
-        let t = Instant::now();
-        write_output(&cmd.output, format, &input, &out)?;
-        clock.record("write", t.elapsed());
-        let report = Report {
-            input: &input,
-            out: &out,
-            params: &params,
-            clock: &clock,
-            arena_bytes: bytes,
-            output: &cmd.output,
-        };
-        crate::cmd::publish(&report.text(), cmd.report.as_deref(), || report.json())?;
-        return Ok(());
-    }
+    let n = input.points.len();
+    let bytes = cmd
+        .memory
+        .arena_size(vsaqem_core::arena_bytes(n, &params), n)?;
+    let mut buf = arena_buffer(bytes);
+    let arena = vsaqem_core::Arena::new(&mut buf);
+    let out = vsaqem_core::reconstruct(
+        &arena,
+        &input.points,
+        input.normals.as_deref(),
+        &params,
+        &mut clock,
+    );
+    clock.finish();
+    let out = out.map_err(|e| match e {
+        Error::MeshCapacity { .. } => format!(
+            "{}: {e} (--mesh-bytes-per-cluster, now {})",
+            input.name,
+            params.mesh_capacity_per_cluster()
+        ),
+        e => format!("{}: {e}", input.name),
+    })?;
+    let t = Instant::now();
+    write_output(&cmd.output, format, &input, &out)?;
+    clock.record("write", t.elapsed());
+    let report = Report {
+        input: &input,
+        out: &out,
+        params: &params,
+        clock: &clock,
+        arena_bytes: bytes,
+        output: &cmd.output,
+    };
+    crate::cmd::publish(&report.text(), cmd.report.as_deref(), || report.json())
 }
 
 fn write_output(

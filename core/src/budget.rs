@@ -1,0 +1,120 @@
+//! How much arena a run needs: [`arena_bytes`] for [`reconstruct`](crate::reconstruct),
+//! [`cluster_bytes`] for [`cluster`](crate::cluster()).
+//!
+//! Both are upper bounds, never estimates: a run on `n` points with the same
+//! [`Params`] never fails with [`Error::Exhausted`](crate::Error::Exhausted) in an
+//! arena of that size (tested on every shared cloud and generated shapes, down to
+//! the byte: `arena-tests/tests/memory_budget.rs`). The bound is the largest, over
+//! the stages, of what is live while the stage runs, each allocation counted at
+//! its worst alignment padding ([`padded_bytes`]):
+//!
+//! | stage | live at its peak | bytes per point (k = 12) |
+//! |---|---|---|
+//! | neighbours | k-NN table + the larger of the grid scratch and the reverse table being built | 48 + 92 |
+//! | quadrics | k-NN + reverse table (worst case: no mutual neighbours) + planes | 48 + 52 + 16 |
+//! | clustering | the above + labels + the largest scratch step (a partition) | 116 + 4 + 16 |
+//! | meshing | the above (without scratch) + the meshing capacity | 120 + 4 + per cluster |
+//!
+//! Plus 32 bytes per cluster of the cap (generators, seeds, their backups) and 4
+//! for the refinement list. The cap is what splitting may reach: `max_clusters`
+//! (twice `clusters` by default), or the number of connected components of the
+//! neighbour graph when larger (at most `n / (k + 1)`: every point has its k
+//! neighbours in its component).
+//!
+//! What a run really uses is less, and depends on the data: the reverse table is
+//! one or two entries per point on real scans rather than `k`, the grid a third of
+//! its bound, and the candidate graph of meshing is as dense as the clusters make
+//! it. Its size is not a function of `n` and the parameters at all (3 candidate
+//! facets per cluster on a well-sampled surface, more than 10 with three points
+//! per cluster), so meshing runs under a ceiling of its own,
+//! [`mesh_capacity`]: `4 n + Params::mesh_bytes_per_cluster × cap` bytes per
+//! round. A denser candidate graph fails with
+//! [`Error::MeshCapacity`](crate::Error::MeshCapacity), whatever the arena's size,
+//! so the output never depends on how much memory the caller happened to give.
+
+use crate::arena::{padded_bytes, GRANULE};
+use crate::params::{Params, MAX_K};
+use crate::{cluster, knn, quadric};
+
+/// The most clusters a run on `n` points can hold: the cap of splitting, or the
+/// components of the neighbour graph when there are more (see the module docs).
+fn cap_bound(n: usize, params: &Params) -> usize {
+    let k = params.k.clamp(1, MAX_K);
+    (params.cluster_cap() as usize)
+        .min(n)
+        .max(n / (k + 1))
+        .max(1)
+}
+
+/// A buffer of `bound` usable bytes, whatever its alignment: the arena skips
+/// up to 7 bytes to start on a granule boundary.
+fn buffer_for(bound: usize) -> usize {
+    bound.saturating_add(GRANULE - 1)
+}
+
+/// Arena bytes that are always enough for [`cluster`](crate::cluster()) on `n`
+/// points with `params` (see the module docs).
+pub fn cluster_bytes(n: usize, params: &Params) -> usize {
+    let (peak, _) = stages(n, params);
+    buffer_for(round_up(peak))
+}
+
+/// Arena bytes that are always enough for [`reconstruct`](crate::reconstruct) on
+/// `n` points with `params`, refinement rounds included: the largest of the
+/// stages' peaks (see the module docs), plus 7 bytes for a buffer that does not
+/// start on an 8-byte boundary. About 140 bytes per point at k = 12 for large
+/// clouds, plus `mesh_bytes_per_cluster` and some 70 bytes per cluster of the
+/// cap. Saturates at `usize::MAX` instead of overflowing.
+pub fn arena_bytes(n: usize, params: &Params) -> usize {
+    buffer_for(reconstruct_bound(n, params))
+}
+
+/// The most [`reconstruct`](crate::reconstruct) uses (a multiple of the
+/// granule): meshing may fill the arena up to here, never beyond.
+pub(crate) fn reconstruct_bound(n: usize, params: &Params) -> usize {
+    let (clustering, kept) = stages(n, params);
+    let cap = cap_bound(n, params);
+    // Refinement keeps one list of uncovered clusters, then runs a clustering
+    // step (its scratch is within the clustering bound) on top of it.
+    let list = padded_bytes::<u32>(cap);
+    let refine = clustering.saturating_add(list);
+    let meshing = kept
+        .saturating_add(list)
+        .saturating_add(mesh_capacity(n, cap, params));
+    round_up(refine.max(meshing))
+}
+
+fn round_up(bytes: usize) -> usize {
+    bytes
+        .checked_add(GRANULE - 1)
+        .map_or(usize::MAX & !(GRANULE - 1), |b| b & !(GRANULE - 1))
+}
+
+/// Bytes a meshing round may use when clustering holds `cap` clusters at most
+/// (see [`Params::mesh_bytes_per_cluster`]): 4 per point (member lists), 48 per
+/// cluster (the per-cluster tables live at once: representatives, list starts,
+/// border flags and positions, 41 bytes), `mesh_bytes_per_cluster` per cluster
+/// up to the cap the parameters ask for (`max_clusters`, or twice `clusters`),
+/// and 1 KiB (the granule rounding of some seventy allocations). Clusters beyond
+/// the asked cap exist only when the neighbour graph has more components than
+/// that, each component with a cluster of its own; they get the 48 bytes, not
+/// the per-cluster capacity, so that the budget does not assume every cloud is
+/// dust.
+pub fn mesh_capacity(n: usize, cap: usize, params: &Params) -> usize {
+    let asked = (params.cluster_cap() as usize).min(n).min(cap);
+    n.saturating_mul(4)
+        .saturating_add(cap.saturating_mul(48))
+        .saturating_add(params.mesh_capacity_per_cluster().saturating_mul(asked))
+        .saturating_add(1024)
+}
+
+/// `(peak of neighbours, quadrics and clustering, what clustering keeps)`.
+fn stages(n: usize, params: &Params) -> (usize, usize) {
+    let k = params.k.clamp(1, MAX_K);
+    let (neighbours, nb_kept) = knn::neighbours_bytes(n, k);
+    let quadrics = nb_kept.saturating_add(quadric::planes_bytes(n));
+    let (cl_kept, cl_scratch) = cluster::cluster_bytes(n, cap_bound(n, params));
+    let kept = quadrics.saturating_add(cl_kept);
+    let clustering = kept.saturating_add(cl_scratch);
+    (neighbours.max(quadrics).max(clustering), kept)
+}

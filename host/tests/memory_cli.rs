@@ -1,0 +1,170 @@
+//! `--memory`: the arena budget of `reconstruct` and `cluster`, checked before any
+//! work against the bound core computes.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use vsaqem_core::{arena_bytes, cluster_bytes, Params};
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_vsaqem"))
+}
+
+fn dir(name: &str) -> PathBuf {
+    let d = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join("memory")
+        .join(name);
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// The built-in sample of these runs: 4000 points, 120 clusters.
+const SMALL: [&str; 6] = [
+    "--sample",
+    "sphere",
+    "--points",
+    "4000",
+    "--clusters",
+    "120",
+];
+
+fn params() -> Params {
+    Params {
+        clusters: 120,
+        ..Params::default()
+    }
+}
+
+fn run(command: &str, d: &Path, memory: &str) -> (Output, PathBuf, PathBuf) {
+    let out = d.join(if command == "cluster" {
+        "clusters.ply"
+    } else {
+        "mesh.ply"
+    });
+    let json = d.join("report.json");
+    let r = bin()
+        .args([command, "-q"])
+        .args(SMALL)
+        .arg(format!("--memory={memory}"))
+        .arg("-o")
+        .arg(&out)
+        .arg("--report")
+        .arg(&json)
+        .output()
+        .unwrap();
+    (r, out, json)
+}
+
+/// The value of a numeric field of a JSON report.
+fn field(report: &str, key: &str) -> f64 {
+    let at = report
+        .find(&format!("\"{key}\": "))
+        .unwrap_or_else(|| panic!("{key} missing from {report}"));
+    let rest = &report[at + key.len() + 4..];
+    rest[..rest.find([',', '\n']).unwrap()]
+        .trim()
+        .parse()
+        .unwrap()
+}
+
+#[test]
+fn a_budget_below_the_bound_fails_at_once_naming_the_bytes_needed() {
+    for (command, needed) in [
+        ("reconstruct", arena_bytes(4000, &params())),
+        ("cluster", cluster_bytes(4000, &params())),
+    ] {
+        let d = dir(&format!("small_{command}"));
+        let (r, out, json) = run(command, &d, &(needed - 1).to_string());
+        let stderr = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(1), "{command}: {stderr}");
+        assert!(
+            stderr.contains(&format!("needs {needed} bytes"))
+                && stderr.contains(&format!("--memory {} bytes", needed - 1)),
+            "{command}: {stderr}"
+        );
+        assert!(!stderr.contains("panicked"), "{stderr}");
+        // Nothing was run: no report, no output, no partial file.
+        assert!(r.stdout.is_empty(), "{command} reported work");
+        assert!(!out.exists() && !json.exists());
+        assert_eq!(std::fs::read_dir(&d).unwrap().count(), 0);
+    }
+}
+
+#[test]
+fn the_bound_itself_is_enough_and_the_output_does_not_depend_on_the_budget() {
+    let needed = arena_bytes(4000, &params());
+    let d = dir("exact");
+    let (r, out, json) = run("reconstruct", &d, &needed.to_string());
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let report = std::fs::read_to_string(&json).unwrap();
+    assert_eq!(field(&report, "arena_reserved_bytes") as usize, needed);
+    assert!(field(&report, "arena_peak_bytes") as usize <= needed);
+    let exact = std::fs::read(&out).unwrap();
+    // A bigger budget (with a unit) gives the same mesh, byte for byte.
+    let d = dir("bigger");
+    let (r, out, json) = run("reconstruct", &d, "64MiB");
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let report = std::fs::read_to_string(&json).unwrap();
+    assert_eq!(field(&report, "arena_reserved_bytes") as usize, 64 << 20);
+    assert_eq!(std::fs::read(&out).unwrap(), exact);
+}
+
+#[test]
+fn sizes_take_units_and_a_bad_one_is_named() {
+    for (given, bytes) in [
+        ("0.25GiB", 1usize << 28),
+        ("48 MiB", 48 << 20),
+        ("30000000", 30_000_000),
+    ] {
+        let d = dir("units");
+        let (r, _, json) = run("cluster", &d, given);
+        assert!(
+            r.status.success(),
+            "{given}: {}",
+            String::from_utf8_lossy(&r.stderr)
+        );
+        let report = std::fs::read_to_string(&json).unwrap();
+        assert_eq!(
+            field(&report, "arena_reserved_bytes") as usize,
+            bytes,
+            "{given}"
+        );
+    }
+    for bad in ["64XiB", "lots", "-3MiB", "1.5"] {
+        let d = dir("bad_unit");
+        let (r, out, _) = run("reconstruct", &d, bad);
+        let stderr = String::from_utf8_lossy(&r.stderr);
+        assert!(!r.status.success(), "{bad} accepted");
+        assert!(stderr.contains(&format!("'{bad}'")), "{bad}: {stderr}");
+        assert!(!out.exists());
+    }
+}
+
+#[test]
+fn a_candidate_graph_too_dense_for_the_meshing_capacity_names_the_option() {
+    // 4000 points in 1000 clusters, two points per cluster of the cap, and a
+    // meshing capacity of one byte per cluster.
+    let d = dir("dense");
+    let out = d.join("mesh.ply");
+    let r = bin()
+        .args([
+            "reconstruct",
+            "-q",
+            "--sample",
+            "sphere",
+            "--points",
+            "4000",
+        ])
+        .args(["--clusters", "1000", "--mesh-bytes-per-cluster", "1", "-o"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(r.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("candidate graph is too dense")
+            && stderr.contains("--mesh-bytes-per-cluster, now 1)"),
+        "{stderr}"
+    );
+    assert!(!out.exists());
+}
