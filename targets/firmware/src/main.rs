@@ -36,7 +36,7 @@ const CLUSTERS: u32 = 40;
 /// sphere --points 1000 --clusters 40 --max-clusters 40` runs the same job on a PC).
 const SEED: u64 = 1;
 /// Arena size. The run on the target peaks at about 131 KB (the firmware reports
-/// it, see README.md); this leaves a fifth more. To change the job, measure its
+/// it, see README.md); this leaves a quarter more. To change the job, measure its
 /// peak (on the PC: `vsaqem reconstruct ... --report r.json`, `arena_peak_bytes`)
 /// and set this, or use `vsaqem_core::reconstruct_bytes` for a safe upper bound.
 const ARENA_BYTES: usize = 160 * 1024;
