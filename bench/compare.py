@@ -40,7 +40,7 @@ SYSTEMS_O3D = ["poisson", "bpa"]
 LABEL = {"poisson": "Open3D Poisson", "bpa": "Open3D BPA"}
 # Up axis of the shared models for the pictures (y when not listed).
 UP = {"block": "z", "bolt": "x", "gear": "z", "horse": "z", "kitten": "z", "rocker_arm": "x"}
-PICTURE_MODELS = "bunny,bolt,armadillo,gear"
+PICTURE_MODELS = "bunny,bolt,gear"
 
 
 def ours(it):
@@ -174,7 +174,7 @@ def run_one(a, model, cloud, system, n, o3d_n, work):
         if rss is not None:
             rec["max_rss_kb"] = rss
         if reason:
-            rec["reason"] = reason
+            rec["reason"] = reason.replace(f"{cloud}: ", "")
             return rec
         if report.exists():
             rec["report"] = json.loads(report.read_text())
@@ -183,7 +183,7 @@ def run_one(a, model, cloud, system, n, o3d_n, work):
             return rec
         ev, reason = evaluate(a.vsaqem, cloud, mesh, a.timeout)
         if reason:
-            rec["reason"] = reason
+            rec["reason"] = reason.replace(f"{cloud}: ", "").replace(f"{mesh}: ", "")
             return rec
         rec["eval"] = ev
         rec["mesh"] = str(mesh)
@@ -366,6 +366,7 @@ def goal(a, models, idx):
             p = {"model": model, "n": n, "ours_ok": bool(r and r["status"] == "ok")}
             if p["ours_ok"]:
                 p["ours_max"] = max_rel(r)
+                p["ours_uncovered"] = r.get("report", {}).get("uncovered_points")
                 p["ours_watertight"] = r["eval"]["topology"]["closed_manifold"]
             if o3d_ok:
                 best = min(o3d_ok, key=max_rel)
@@ -388,9 +389,10 @@ def goal(a, models, idx):
 
 
 def goal_table(it, pairs):
-    head = ("| model | N | ours max % | best Open3D max % | at or below | ours watertight "
-            "| Poisson / BPA watertight | time ratio | peak RSS ratio |\n"
-            "|---|---:|---:|---:|---|---|---|---:|---:|\n")
+    head = ("| model | N | ours max % | best Open3D max % | at or below | ours: points in "
+            "clusters the mesh leaves out | ours watertight | Poisson / BPA watertight "
+            "| time ratio | peak RSS ratio |\n"
+            "|---|---:|---:|---:|---|---:|---|---|---:|---:|\n")
     rows = []
     for p in pairs:
         o = f"{pct(p['o3d_max'])} ({LABEL[p['o3d_best']].split()[1]})" if "o3d_max" in p else "both failed"
@@ -398,13 +400,26 @@ def goal_table(it, pairs):
                         if s in p["o3d_watertight"] else "failed" for s in SYSTEMS_O3D)
         rows.append(
             f"| {p['model']} | {p['n']} | {pct(p['ours_max']) if p['ours_ok'] else 'failed'} | {o} | "
-            f"{'yes' if p['win'] else '**no**'} | "
+            f"{'yes' if p['win'] else '**no**'} | {p.get('ours_uncovered', '')} | "
             f"{('yes' if p['ours_watertight'] else '**no**') if p['ours_ok'] else ''} | {wt} | "
             + (f"{p['time_ratio']:.1f}x | {p['rss_ratio']:.1f}x |" if "time_ratio" in p else " | |"))
     return head + "\n".join(rows) + "\n"
 
 
-def goal_text(it, pairs):
+def wins_at(a, models, idx, it):
+    """(pairs where ours at `it` iterations is at or below Open3D's best, pairs)."""
+    win = n = 0
+    for model, _ in models:
+        for c in a.clusters:
+            n += 1
+            r = idx.get((model, ours(it), c))
+            o = [x for s in SYSTEMS_O3D if (x := idx.get((model, s, c))) and x["status"] == "ok"]
+            if r and r["status"] == "ok" and (not o or max_rel(r) <= min(map(max_rel, o))):
+                win += 1
+    return win, n
+
+
+def goal_text(it, pairs, per_it=None):
     n = len(pairs)
     if n == 0:
         return "No (model, cluster count) pair was run.\n"
@@ -423,7 +438,10 @@ def goal_text(it, pairs):
         f"Ours at {it} iterations against Open3D's better pipeline of the two in each pair "
         f"(time and memory: against Open3D's cheaper pipeline).\n",
         f"- Maximum distance at or below Open3D's best: {wins} of {n} pairs "
-        f"({100 * wins / n:.0f} %; goal 80 %) -> **{'met' if wins >= 0.8 * n else 'not met'}**.",
+        f"({100 * wins / n:.0f} %; goal 80 %) -> **{'met' if wins >= 0.8 * n else 'not met'}**"
+        + (" (other iteration counts: " + ", ".join(
+            f"{w} of {m} at {i}" for i, (w, m) in per_it.items() if i != it) + ")"
+           if per_it and len(per_it) > 1 else "") + ".",
         f"- Our meshes closed and manifold: {ours_wt} of {n} pairs; of the {len(o3d_not)} pairs "
         f"where neither Open3D mesh is, ours is in {ours_wt_where}.",
         f"- Whole-process wall time, Open3D / ours: {spread(tr)}; CPU time: {spread(cr)}. "
@@ -440,6 +458,90 @@ def goal_text(it, pairs):
             + (f"{pct(p['ours_max'])} vs {pct(p['o3d_max'])} %" if p["ours_ok"] else "ours failed")
             + ")" for p in losses) + ".")
     return "\n".join(lines) + "\n"
+
+
+REPORT_KEYS = ("points", "clusters", "initial_clusters", "splits", "passes",
+               "max_error_relative", "solver_optimal", "solver_gap", "solver_nodes", "vertices",
+               "faces", "boundary_edges", "components", "holes_filled", "holes_left",
+               "uncovered_clusters", "uncovered_points", "time_ms", "arena_peak_bytes",
+               # Open3D's --info
+               "steps_s", "poisson_vertices", "bpa_radii", "surface_faces")
+
+
+def slim_record(r):
+    """What runs.json keeps of a run: the relative distances, topology, our report's
+    counts and stage times, Open3D's step times."""
+    out = {k: v for k, v in r.items() if k not in ("eval", "report", "mesh")}
+    if "report" in r:
+        out["report"] = {k: r["report"][k] for k in REPORT_KEYS if k in r["report"]}
+    if "eval" in r:
+        ev = r["eval"]
+        d = ev["point_to_mesh"]["distance"]
+        out["eval"] = {
+            "points": ev["points"], "diagonal": ev["diagonal"],
+            "point_to_mesh": {k: d[k] for k in ("max_relative", "mean_relative", "rms_relative",
+                                                "p99_relative")} | {"far": ev["point_to_mesh"]["far"]},
+            "mesh_to_points": {k: ev["mesh_to_points"][k] for k in ("max_relative", "mean_relative")},
+            "chamfer_relative": ev["chamfer_relative"],
+            "hausdorff_relative": ev["hausdorff_relative"],
+            "topology": ev["topology"],
+            "min_angle_p5": ev.get("quality", {}).get("min_angle_p5")}
+    return slim(out)
+
+
+def slim(x):
+    """Floats to 5 significant digits, for a results file that diffs and stays small."""
+    if isinstance(x, float):
+        return float(f"{x:.5g}")
+    if isinstance(x, dict):
+        return {k: slim(v) for k, v in x.items()
+                if k not in ("mesh", "input", "output", "points_file", "mesh_file")}
+    if isinstance(x, list):
+        return [slim(v) for v in x]
+    return x
+
+
+def per_model(a, models, idx, it):
+    """One row per model: the goal's quantities over its cluster counts."""
+    me = ours(it)
+
+    def rng(v, fmt):
+        v = [x for x in v if x is not None]
+        if not v:
+            return "-"
+        lo, hi = min(v), max(v)
+        return fmt(lo) if fmt(lo) == fmt(hi) else f"{fmt(lo)}-{fmt(hi)}"
+
+    head = (f"| model | points | ours ({it} it.) max % at " + " / ".join(map(str, a.clusters))
+            + " | best Open3D max % | ours at or below | watertight: ours / Poisson / BPA "
+            "| wall s: ours / Open3D | peak RSS MB: ours / Open3D |\n"
+            "|---|---:|---|---|---|---|---|---|\n")
+    rows = []
+    for model, _ in models:
+        mine = [idx.get((model, me, n)) for n in a.clusters]
+        best, wins, o3d_t, o3d_m = [], 0, [], []
+        wt = {s: 0 for s in [me] + SYSTEMS_O3D}
+        pts = next((r["eval"]["points"] for r in mine if r and r.get("eval")), 0)
+        for n, r in zip(a.clusters, mine):
+            o = [x for s in SYSTEMS_O3D if (x := idx.get((model, s, n))) and x["status"] == "ok"]
+            best.append(min(map(max_rel, o)) if o else None)
+            if r and r["status"] == "ok" and (not o or max_rel(r) <= best[-1]):
+                wins += 1
+            for x in o + ([r] if r and r["status"] == "ok" else []):
+                wt[x["system"]] += x["eval"]["topology"]["closed_manifold"]
+            o3d_t += [x["wall_s"] for x in o]
+            o3d_m += [x["max_rss_kb"] / 1024 for x in o if "max_rss_kb" in x]
+        ok = [r for r in mine if r and r["status"] == "ok"]
+        cells = [pct(max_rel(r)) if r and r["status"] == "ok" else "failed" for r in mine]
+        nb = len(a.clusters)
+        rows.append(
+            f"| {model} | {pts:,} | {' / '.join(cells)} | "
+            f"{' / '.join(pct(b) if b is not None else 'failed' for b in best)} | {wins} of {nb} | "
+            f"{wt[me]} / {wt['poisson']} / {wt['bpa']} of {nb} | "
+            f"{rng([r['wall_s'] for r in ok], lambda x: f'{x:.1f}')} / {rng(o3d_t, lambda x: f'{x:.1f}')} | "
+            f"{rng([r['max_rss_kb'] / 1024 for r in ok if 'max_rss_kb' in r], lambda x: f'{x:.0f}')} / "
+            f"{rng(o3d_m, lambda x: f'{x:.0f}')} |")
+    return head + "\n".join(rows) + "\n"
 
 
 def write_csv(path, records):
@@ -470,6 +572,17 @@ def write_csv(path, records):
 
 
 # ---------------------------------------------------------------- plots
+
+
+def save_fig(fig, path):
+    """Saves a figure as a palette PNG (plots have few colours; a tenth of the bytes)."""
+    import io
+    from PIL import Image
+    buf = io.BytesIO()
+    fig.savefig(buf, dpi=80, format="png")
+    buf.seek(0)
+    Image.open(buf).convert("RGB").quantize(colors=64, method=Image.Quantize.MEDIANCUT).save(
+        path, optimize=True)
 
 
 STAGES = {"clustering": ("neighbours", "quadrics", "clustering"),
@@ -521,7 +634,7 @@ def plots(a, models, idx, out):
                  + ", ".join(f"{n}" for n in a.clusters) + " clusters)", fontsize=10)
     fig.tight_layout(rect=(0, 0.06, 1, 0.95))
     files.append(out / "time_per_stage.png")
-    fig.savefig(files[-1], dpi=80)
+    save_fig(fig, files[-1])
     plt.close(fig)
 
     # Peak RSS and wall time per system (largest over the cluster counts).
@@ -530,7 +643,7 @@ def plots(a, models, idx, out):
     for key, unit, scale, fname, title in (
             ("max_rss_kb", "MB", 1 / 1024, "peak_memory.png", "whole-process peak RSS"),
             ("wall_s", "s", 1, "time.png", "whole-process wall time")):
-        fig, ax = plt.subplots(figsize=(max(6, 1.1 * len(names) + 2), 3.6))
+        fig, ax = plt.subplots(figsize=(max(6, 1.1 * len(names) + 2), 4.0))
         w = 0.8 / len(systems)
         for j, s in enumerate(systems):
             vals = []
@@ -545,11 +658,11 @@ def plots(a, models, idx, out):
         ax.set_ylabel(unit)
         ax.set_title(f"{title} per system (largest over {', '.join(map(str, a.clusters))} clusters)",
                      fontsize=10)
-        ax.legend(fontsize=7, ncol=2)
+        ax.legend(fontsize=7, ncol=len(systems), loc="upper center", bbox_to_anchor=(0.5, -0.28))
         ax.grid(axis="y", which="both", alpha=0.3)
         fig.tight_layout()
         files.append(out / fname)
-        fig.savefig(files[-1], dpi=80)
+        save_fig(fig, files[-1])
         plt.close(fig)
 
     # Error vs clusters (the paper's Figures 17-20).
@@ -586,7 +699,7 @@ def plots(a, models, idx, out):
                  "(x on the axis: failed)", fontsize=10)
     fig.tight_layout(rect=(0, 0.06, 1, 0.95))
     files.append(out / "error_vs_clusters.png")
-    fig.savefig(files[-1], dpi=80)
+    save_fig(fig, files[-1])
     plt.close(fig)
     return files
 
@@ -655,19 +768,19 @@ def points_tile(points, lo, hi, up, size, title):
     w, h = size
     band = 24
     scale = min(0.88 * w / max(mx[0] - mn[0], 1e-12), 0.88 * h / max(mx[1] - mn[1], 1e-12))
-    step = max(1, len(points) // 30000)
+    step = max(1, len(points) // 12000)
     q = proj(points[::step])
     order = np.argsort(q[:, 2])
     q = q[order]
     sx = 0.5 * w + scale * (q[:, 0] - 0.5 * (mn[0] + mx[0]))
     sy = 0.5 * h - scale * (q[:, 1] - 0.5 * (mn[1] + mx[1])) + band
     depth = (q[:, 2] - q[:, 2].min()) / max(np.ptp(q[:, 2]), 1e-12)
-    col = np.outer(0.35 + 0.65 * depth, [215, 25, 35]) / 255 + np.outer(1 - depth, [0.25, 0.25, 0.25]) * 0.3
+    col = np.outer(0.3 + 0.7 * depth, [215, 25, 35]) / 255
     dpi = 100
     fig = plt.figure(figsize=(w / dpi, (h + band) / dpi), dpi=dpi)
     ax = fig.add_axes((0, 0, 1, 1))
     ax.set_xlim(0, w); ax.set_ylim(h + band, 0); ax.axis("off")
-    ax.scatter(sx, sy, s=1.2, c=np.clip(col, 0, 1), marker=".", linewidths=0)
+    ax.scatter(sx, sy, s=1.0, c=np.clip(col, 0, 1), marker=".", linewidths=0)
     ax.text(w / 2, 14, title, ha="center", va="center", fontsize=10, family="monospace")
     fig.canvas.draw()
     img = Image.frombuffer("RGBA", fig.canvas.get_width_height(), fig.canvas.buffer_rgba()).convert("RGB")
@@ -729,7 +842,7 @@ def picture(a, model, cloud, idx, work, out):
                 draw.text((150 + (j + 1) * tw + 10, i * th + th // 2),
                           f"{n}: failed", fill=(200, 0, 0), font=font)
     path = out / f"picture_{model}.png"
-    canvas.quantize(colors=64, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE).save(
+    canvas.quantize(colors=32, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE).save(
         path, optimize=True)
     shutil.rmtree(tmp, ignore_errors=True)
     return path
@@ -764,8 +877,11 @@ def main():
     ap.add_argument("--timeout", type=float, default=600, help="seconds per process (600)")
     ap.add_argument("--pictures", type=parse_list, default=parse_list(PICTURE_MODELS),
                     help=f"models to draw side by side ({PICTURE_MODELS}; '' for none)")
-    ap.add_argument("--tile", type=lambda s: tuple(map(int, s.split("x"))), default=(240, 240),
-                    help="picture tile size WxH (240x240)")
+    ap.add_argument("--tile", type=lambda s: tuple(map(int, s.split("x"))), default=(200, 200),
+                    help="picture tile size WxH (200x200)")
+    ap.add_argument("--reuse", action="store_true",
+                    help="do not run anything: redo tables, plots and pictures from the last run's "
+                         "records in --work")
     a = ap.parse_args()
     a.clusters = sorted(set(a.clusters))
     a.iterations = sorted(set(a.iterations))
@@ -792,10 +908,22 @@ def main():
     info["started"] = time.strftime("%Y-%m-%d %H:%M:%S")
     log(f"vsaqem compare: {len(models)} models x clusters {a.clusters} x "
         f"(ours at {a.iterations} iterations + Open3D Poisson, BPA); load {info['load_before']}")
-    t0 = time.perf_counter()
-    records = run_all(a, models, work)
-    info["run_s"] = time.perf_counter() - t0
-    info["load_after"] = os.getloadavg()
+    saved = work / "records.json"
+    if a.reuse:
+        if not saved.exists():
+            sys.exit(f"error: --reuse: {saved} not found (run without --reuse first)")
+        old = json.loads(saved.read_text())
+        info = old["machine"]
+        want = {(m, s, n) for m, _ in models for s in systems_of(a) for n in a.clusters}
+        records = [r for r in old["records"] if (r["model"], r["system"], r["clusters"]) in want]
+        log(f"reusing {len(records)} runs of {info['started']} from {saved}")
+    else:
+        t0 = time.perf_counter()
+        records = run_all(a, models, work)
+        info["run_s"] = time.perf_counter() - t0
+        info["load_after"] = os.getloadavg()
+        info["command"] = " ".join(x if x and " " not in x else repr(x) for x in sys.argv[1:])
+        saved.write_text(json.dumps({"machine": info, "records": records}))
     idx = index(records)
 
     points = {}
@@ -812,9 +940,9 @@ def main():
                 "the 2 % density quantile removed; BPA radii r, 2r with r = 3 x mean "
                 "nearest-neighbour distance; simplify_quadric_decimation to 2V triangles",
                 "vsaqem": "reconstruct --clusters N --iterations I, defaults otherwise (seed 1)"}
-    (a.out / "runs.json").write_text(json.dumps(
-        {"machine": info, "settings": settings, "goal_pairs": pairs,
-         "runs": [{k: v for k, v in r.items() if k != "mesh"} for r in records]}, indent=1))
+    with open(a.out / "runs.json", "w") as f:
+        f.write('{"machine": ' + json.dumps(slim(info)) + ',\n"settings": ' + json.dumps(settings)
+                + ',\n"runs": [\n' + ",\n".join(json.dumps(slim_record(r)) for r in records) + "\n]}\n")
     write_csv(a.out / "runs.csv", records)
 
     pics = []
@@ -834,8 +962,7 @@ def main():
         log(f"plots failed: {type(e).__name__}: {e}")
         plot_files = []
 
-    cmdline = "python bench/compare.py " + " ".join(
-        x if " " not in x else f"'{x}'" for x in sys.argv[1:])
+    cmdline = "python bench/compare.py " + info.get("command", "")
     load = info["load_before"]
     summary = [
         "# vsaqem vs Open3D 0.20\n",
@@ -854,7 +981,10 @@ def main():
         "against its input cloud. Distances are % of the cloud's bounding-box diagonal; "
         "watertight = closed, edge- and vertex-manifold, consistently oriented.\n",
         "## Against the goal\n",
-        goal_text(it, pairs),
+        goal_text(it, pairs, {i: wins_at(a, models, idx, i) for i in a.iterations}),
+        "Per model (Open3D: both pipelines; watertight counts are of the cluster counts):\n",
+        per_model(a, models, idx, it),
+        "\nPer model and cluster count (ratios: Open3D's cheaper pipeline over ours):\n",
         goal_table(it, pairs),
         "\n## Maximum distance per model (the paper's Tables 1-3)\n",
         "Per model, with vertex counts, times and memory: "
