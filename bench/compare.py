@@ -496,7 +496,7 @@ def slim(x):
     if isinstance(x, dict):
         return {k: slim(v) for k, v in x.items()
                 if k not in ("mesh", "input", "output", "points_file", "mesh_file")}
-    if isinstance(x, list):
+    if isinstance(x, (list, tuple)):
         return [slim(v) for v in x]
     return x
 
@@ -842,7 +842,7 @@ def picture(a, model, cloud, idx, work, out):
                 draw.text((150 + (j + 1) * tw + 10, i * th + th // 2),
                           f"{n}: failed", fill=(200, 0, 0), font=font)
     path = out / f"picture_{model}.png"
-    canvas.quantize(colors=32, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE).save(
+    canvas.quantize(colors=48, method=Image.Quantize.MEDIANCUT, dither=Image.Dither.NONE).save(
         path, optimize=True)
     shutil.rmtree(tmp, ignore_errors=True)
     return path
