@@ -14,7 +14,7 @@ VENV=${VENV:-bench/.venv}
 PYTHON=${PYTHON:-python3}
 
 missing=()
-ldconfig -p | grep -q 'libusb-1\.0\.so\.0' || missing+=(libusb-1.0-0)
+ldconfig -p 2>/dev/null | grep 'libusb-1\.0\.so\.0' >/dev/null || missing+=(libusb-1.0-0)
 [ -x /usr/bin/time ] || missing+=(time)
 "$PYTHON" -c 'import ensurepip, venv' 2>/dev/null || missing+=(python3-venv)
 if [ ${#missing[@]} -gt 0 ]; then
