@@ -1,0 +1,36 @@
+#!/usr/bin/env bash
+# One command for the comparison with Open3D: installs what it needs (system
+# libraries, a Python venv with bench/requirements.txt), builds vsaqem in release
+# and runs bench/compare.py with the arguments given, e.g.
+#
+#   bash bench/compare.sh                                   # all clouds in ../shared/data/clouds
+#   bash bench/compare.sh --models bunny,block --clusters 250 --iterations 5
+#   bash bench/compare.sh --clouds ~/scans --out ~/scans/results
+#
+# Environment: VENV (default bench/.venv), PYTHON (default python3, 3.11 tested).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+VENV=${VENV:-bench/.venv}
+PYTHON=${PYTHON:-python3}
+
+missing=()
+ldconfig -p 2>/dev/null | grep 'libusb-1\.0\.so\.0' >/dev/null || missing+=(libusb-1.0-0)
+[ -x /usr/bin/time ] || missing+=(time)
+"$PYTHON" -c 'import ensurepip, venv' 2>/dev/null || missing+=(python3-venv)
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "installing system packages: ${missing[*]}"
+  if [ "$(id -u)" = 0 ]; then
+    apt-get update -qq && apt-get install -y -qq "${missing[@]}"
+  else
+    sudo apt-get update -qq && sudo apt-get install -y -qq "${missing[@]}"
+  fi
+fi
+
+if [ ! -x "$VENV/bin/python" ]; then
+  echo "creating $VENV"
+  "$PYTHON" -m venv "$VENV"
+fi
+"$VENV/bin/python" -m pip install -q --disable-pip-version-check -r bench/requirements.txt
+
+cargo build --release -p vsaqem
+exec "$VENV/bin/python" bench/compare.py "$@"
