@@ -375,6 +375,7 @@ fn mesh_round<'a>(
         let (mesh, mesh_stats) = mesh::try_mesh_in(
             arena,
             s,
+            points,
             &cand,
             &members,
             selected,

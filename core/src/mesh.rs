@@ -31,7 +31,7 @@ use crate::arena::{Alloc, Arena};
 use crate::candidates::degenerate;
 use crate::candidates::{Candidates, Members};
 use crate::error::Result;
-use crate::math::{cross, dist2, dot, sub, V3};
+use crate::math::{cross, dist2, dot, norm, sub, V3};
 
 /// Facts about the output mesh.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -223,16 +223,19 @@ struct Filled {
 /// (an ear turning against the loop's surrounding faces costs 16 times more); an
 /// ear is never degenerate and never adds an edge the mesh already has, so every
 /// edge keeps at most two faces. A loop with no admissible ear stays open.
+#[allow(clippy::too_many_arguments)]
 fn fill_holes<'b, S: Alloc<'b>>(
     s: &S,
     faces: &mut [[u32; 3]],
     nf: usize,
     generators: &[V3],
     open: &[bool],
+    along: &mut [bool],
     max_hole: u32,
     tol: f32,
 ) -> Result<Filled> {
     let mut out = Filled::default();
+    along.fill(false);
     s.scratch(|t| {
         let table = edge_table(t, &faces[..nf])?;
         // Hole half-edges (from, to, face): the reverse of each boundary edge.
@@ -266,6 +269,8 @@ fn fill_holes<'b, S: Alloc<'b>>(
         }
         let used = t.try_alloc_slice::<bool>(nh, false)?;
         let poly = t.try_alloc_slice::<u32>(nh, 0)?;
+        // The face beside each loop edge poly[i] -> poly[i + 1] (for local normals).
+        let beside = t.try_alloc_slice::<u32>(nh, 0)?;
         let added = t.try_alloc_slice::<u64>(nh, 0)?;
         let mut n_added = 0usize;
         let g = |j: u32| generators[j as usize];
@@ -277,6 +282,7 @@ fn fill_holes<'b, S: Alloc<'b>>(
             let (first, mut cur, f0) = holes[h0];
             used[h0] = true;
             poly[0] = first;
+            beside[0] = f0;
             let mut len = 1usize;
             let mut normal = face_normal(faces[f0 as usize].map(g));
             let mut closed = true;
@@ -291,6 +297,7 @@ fn fill_holes<'b, S: Alloc<'b>>(
                 };
                 used[h] = true;
                 poly[len] = cur;
+                beside[len] = holes[h].2;
                 len += 1;
                 normal = add(normal, face_normal(faces[holes[h].2 as usize].map(g)));
                 cur = holes[h].1;
@@ -301,6 +308,29 @@ fn fill_holes<'b, S: Alloc<'b>>(
                 .count();
             if closed && len >= MIN_OPEN_LOOP && 2 * on_border >= len {
                 out.open += 1;
+                for &v in &poly[..len] {
+                    if let Some(a) = along.get_mut(v as usize) {
+                        *a = true;
+                    }
+                }
+                let known = |a: u32, c: u32| {
+                    !faces_of(table, key(a, c)).is_empty() || added[..n_added].contains(&key(a, c))
+                };
+                let ears = fill_notches(
+                    faces,
+                    nf + out.faces,
+                    &mut poly[..len],
+                    &mut beside[..len],
+                    generators,
+                    open,
+                    tol,
+                    known,
+                );
+                for &[a, _, c] in &faces[nf + out.faces..nf + out.faces + ears] {
+                    added[n_added] = key(a, c);
+                    n_added += 1;
+                }
+                out.faces += ears;
                 continue;
             }
             if !closed || len < 3 || len > max_hole as usize {
@@ -367,6 +397,86 @@ fn fill_holes<'b, S: Alloc<'b>>(
     })
 }
 
+/// Widest angle (degrees) at a notch: a vertex of a loop kept open that is not
+/// itself on the border of the data, where the loop turns into the surface
+/// between its neighbours.
+const NOTCH_DEGREES: f32 = 135.0;
+
+/// Along a loop kept open because it runs on the border of the data, close the
+/// notches: where a facet next to the border was not selected, the loop dips
+/// into the surface through a cluster that is not on the border (its neighbours
+/// along the loop are), about a cluster's width deep. An ear across such a
+/// vertex (turning the hole's way, at most [`NOTCH_DEGREES`] wide) puts the loop
+/// back onto the border. Ears are written from `faces[at]` on (room for one per
+/// loop edge is required); `poly` and `beside` (the loop's vertices, and the
+/// face beside each loop edge `poly[i] -> poly[i + 1]`) are updated as ears cut
+/// vertices off. Like hole filling, an ear is never degenerate and never adds
+/// an edge the mesh (`known`) or an earlier ear already has. Returns the ears
+/// written.
+#[allow(clippy::too_many_arguments)]
+fn fill_notches(
+    faces: &mut [[u32; 3]],
+    at: usize,
+    poly: &mut [u32],
+    beside: &mut [u32],
+    generators: &[V3],
+    open: &[bool],
+    tol: f32,
+    known: impl Fn(u32, u32) -> bool,
+) -> usize {
+    let g = |j: u32| generators.get(j as usize).copied().unwrap_or([0.0; 3]);
+    let unit = |v: V3| {
+        let l = norm(v);
+        if l > 0.0 {
+            [v[0] / l, v[1] / l, v[2] / l]
+        } else {
+            [0.0; 3]
+        }
+    };
+    let cos_max = libm::cosf(NOTCH_DEGREES.to_radians());
+    let mut len = poly.len().min(beside.len());
+    let mut ears = 0usize;
+    while len > MIN_OPEN_LOOP && at + ears < faces.len() {
+        // The sharpest notch first (the smallest angle, the lowest position on ties).
+        let mut best: Option<(f32, usize)> = None;
+        for i in 0..len {
+            let prev = (i + len - 1) % len;
+            let (a, b, c) = (poly[prev], poly[i], poly[(i + 1) % len]);
+            if open.get(b as usize).copied().unwrap_or(true) || a == c {
+                continue;
+            }
+            let (pa, pb, pc) = (g(a), g(b), g(c));
+            let normal = |f: u32| {
+                let face = faces.get(f as usize).copied().unwrap_or([0; 3]);
+                unit(face_normal(face.map(g)))
+            };
+            let n = add(normal(beside[prev]), normal(beside[i]));
+            let (ba, bc) = (unit(sub(pa, pb)), unit(sub(pc, pb)));
+            let cos = dot(ba, bc);
+            let turn = dot(cross(sub(pb, pa), sub(pc, pb)), n);
+            if turn <= 0.0 || cos < cos_max || best.is_some_and(|(bc, _)| bc >= cos) {
+                continue;
+            }
+            let repeats = faces[at..at + ears]
+                .iter()
+                .any(|f| key(f[0], f[2]) == key(a, c));
+            if known(a, c) || repeats || degenerate(pa, pb, pc, tol) {
+                continue;
+            }
+            best = Some((cos, i));
+        }
+        let Some((_, i)) = best else { break };
+        let prev = (i + len - 1) % len;
+        faces[at + ears] = [poly[prev], poly[i], poly[(i + 1) % len]];
+        beside[prev] = (at + ears) as u32;
+        ears += 1;
+        poly.copy_within(i + 1..len, i);
+        beside.copy_within(i + 1..len, i);
+        len -= 1;
+    }
+    ears
+}
+
 fn face_normal(p: [V3; 3]) -> V3 {
     cross(sub(p[1], p[0]), sub(p[2], p[0]))
 }
@@ -396,6 +506,7 @@ pub enum Output {
 pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
     out: &'o Arena<'b>,
     work: &W,
+    points: &[V3],
     cand: &Candidates,
     members: &Members,
     selected: &[bool],
@@ -442,6 +553,8 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
         }
         let tol = crate::candidates::COINCIDENT * diag;
         let clash = s.try_alloc_slice::<bool>(faces.len(), false)?;
+        // Clusters on a boundary loop kept open (along the border of the data).
+        let along = s.try_alloc_slice::<bool>(m, false)?;
         let mut nf = nf;
         let mut filled = Filled::default();
         let mut repaired = 0u32;
@@ -454,7 +567,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             // Close the holes; a clash (the selection folded over somewhere, which
             // edge constraints cannot see) is cut out with the faces around it and
             // closed again, a few times at most.
-            let more = fill_holes(s, faces, nf, generators, open, max_hole, tol)?;
+            let more = fill_holes(s, faces, nf, generators, open, along, max_hole, tol)?;
             filled.faces += more.faces;
             filled.holes += more.holes;
             filled.left = more.left;
@@ -589,6 +702,46 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
                 triangles[f][k] = v;
             }
         }
+        // A vertex on a loop kept open whose cluster was not seen as on the border
+        // (its neighbours left a narrower gap) also moves onto the data's border:
+        // outwards, away from its boundary faces, to its farthest point that way.
+        for v in 0..nv as usize {
+            let c = vertex_cluster[v] as usize;
+            if !(on_boundary[c] && along[c]) || open.get(c).copied().unwrap_or(false) {
+                continue;
+            }
+            let g = generators[c];
+            let mut d = [0.0f32; 3];
+            for &(k, f) in table.iter() {
+                let (a, b) = ((k >> 32) as usize, k as u32 as usize);
+                if (a != c && b != c) || faces_of(table, k).len() != 1 {
+                    continue;
+                }
+                let face = faces[f as usize].map(|x| generators[x as usize]);
+                let e = sub(generators[b], generators[a]);
+                let mut w = cross(e, face_normal(face));
+                let centroid = [0, 1, 2].map(|i| (face[0][i] + face[1][i] + face[2][i]) / 3.0);
+                if dot(w, sub(g, centroid)) < 0.0 {
+                    w = [-w[0], -w[1], -w[2]];
+                }
+                let l = norm(w);
+                if l > 0.0 && l.is_finite() {
+                    d = add(d, [w[0] / l, w[1] / l, w[2] / l]);
+                }
+            }
+            let l = norm(d);
+            if !(l > 0.0 && l.is_finite()) {
+                continue;
+            }
+            let d = [d[0] / l, d[1] / l, d[2] / l];
+            let reach = members
+                .of(c)
+                .iter()
+                .filter_map(|&i| points.get(i as usize))
+                .map(|&p| dot(sub(p, g), d))
+                .fold(0.0f32, f32::max);
+            vertices[v] = [0, 1, 2].map(|i| g[i] + reach * d[i]);
+        }
         let mesh = Mesh {
             vertices,
             triangles,
@@ -671,7 +824,7 @@ mod tests {
         all[..nf].copy_from_slice(faces);
         let clash = arena.try_alloc_slice::<bool>(all.len(), false).unwrap();
         orient(&arena, &mut all[..nf], v, clash).unwrap();
-        let filled = fill_holes(&arena, all, nf, v, &[], max_hole, 1e-6).unwrap();
+        let filled = fill_holes(&arena, all, nf, v, &[], &mut [], max_hole, 1e-6).unwrap();
         let total = nf + filled.faces;
         clash.fill(false);
         let (_, bad) = orient(&arena, &mut all[..total], v, clash).unwrap();
