@@ -259,3 +259,59 @@ pub fn distance_to_mesh(p: V3, v: &[V3], triangles: &[[u32; 3]]) -> f32 {
         .fold(f32::INFINITY, f32::min)
         .sqrt()
 }
+
+/// Distance from `p` to the true border of the open generated `shape`
+/// (hemisphere, tube, wave, holed sphere; for the wave, to a point of the border,
+/// which is no less than the distance to the border). `None` for closed shapes.
+pub fn to_border(shape: Shape, p: V3) -> Option<f64> {
+    let [x, y, z] = p.map(|c| c as f64);
+    let rho = (x * x + y * y).sqrt();
+    let circle = |r: f64, h: f64| ((rho - r).powi(2) + (z - h).powi(2)).sqrt();
+    Some(match shape {
+        Shape::Hemisphere => circle(1.0, 0.0),
+        Shape::Tube => circle(0.6, 0.8).min(circle(0.6, -0.8)),
+        Shape::HoledSphere => circle(0.51f64.sqrt(), 0.7),
+        Shape::Wave => {
+            let (bx, by) = if 1.0 - x.abs() < 1.0 - y.abs() {
+                (x.signum(), y.clamp(-1.0, 1.0))
+            } else {
+                (x.clamp(-1.0, 1.0), y.signum())
+            };
+            let bz = vsaqem_core::sample::wave(bx, by).0;
+            ((x - bx).powi(2) + (y - by).powi(2) + (z - bz).powi(2)).sqrt()
+        }
+        _ => return None,
+    })
+}
+
+/// Diagonal of the bounding box of `pts`.
+pub fn diagonal(pts: &[V3]) -> f64 {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in pts {
+        for a in 0..3 {
+            lo[a] = lo[a].min(p[a] as f64);
+            hi[a] = hi[a].max(p[a] as f64);
+        }
+    }
+    (0..3).map(|a| (hi[a] - lo[a]).powi(2)).sum::<f64>().sqrt()
+}
+
+/// The vertices on a boundary edge (an edge of one triangle), ascending.
+pub fn boundary_vertices(triangles: &[[u32; 3]]) -> Vec<u32> {
+    let mut count: HashMap<(u32, u32), u32> = HashMap::new();
+    for t in triangles {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            *count.entry((a.min(b), a.max(b))).or_default() += 1;
+        }
+    }
+    let mut out: Vec<u32> = count
+        .iter()
+        .filter(|(_, &c)| c == 1)
+        .flat_map(|(&(a, b), _)| [a, b])
+        .collect();
+    out.sort_unstable();
+    out.dedup();
+    out
+}

@@ -4,44 +4,9 @@
 
 use std::mem::MaybeUninit;
 
-use arena_tests::{cloud, distance_to_mesh, topology};
-use vsaqem_core::sample::{wave, Shape};
-use vsaqem_core::{arena_bytes, reconstruct, Arena, Params, Silent, V3};
-
-/// Distance from `p` to the true border of `shape` (for the wave, to a point of
-/// the border, which is no less than the distance to the border).
-fn to_border(shape: Shape, p: V3) -> f64 {
-    let [x, y, z] = p.map(|c| c as f64);
-    let rho = (x * x + y * y).sqrt();
-    let circle = |r: f64, h: f64| ((rho - r).powi(2) + (z - h).powi(2)).sqrt();
-    match shape {
-        Shape::Hemisphere => circle(1.0, 0.0),
-        Shape::Tube => circle(0.6, 0.8).min(circle(0.6, -0.8)),
-        Shape::HoledSphere => circle(0.51f64.sqrt(), 0.7),
-        Shape::Wave => {
-            let (bx, by) = if 1.0 - x.abs() < 1.0 - y.abs() {
-                (x.signum(), y.clamp(-1.0, 1.0))
-            } else {
-                (x.clamp(-1.0, 1.0), y.signum())
-            };
-            let bz = wave(bx, by).0;
-            ((x - bx).powi(2) + (y - by).powi(2) + (z - bz).powi(2)).sqrt()
-        }
-        _ => unreachable!(),
-    }
-}
-
-fn diagonal(pts: &[V3]) -> f64 {
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for p in pts {
-        for a in 0..3 {
-            lo[a] = lo[a].min(p[a] as f64);
-            hi[a] = hi[a].max(p[a] as f64);
-        }
-    }
-    (0..3).map(|a| (hi[a] - lo[a]).powi(2)).sum::<f64>().sqrt()
-}
+use arena_tests::{boundary_vertices, cloud, diagonal, distance_to_mesh, to_border, topology};
+use vsaqem_core::sample::Shape;
+use vsaqem_core::{arena_bytes, reconstruct, Arena, Params, Silent};
 
 #[test]
 fn open_shapes_keep_their_border_and_cover_their_points() {
@@ -74,23 +39,10 @@ fn open_shapes_keep_their_border_and_cover_their_points() {
             assert!(topo.is_clean_manifold(), "{what}: {topo:?}");
             assert!(topo.boundary_edges > 0, "{what}: closed over the border");
             assert_eq!(r.mesh.stats.open_loops, loops, "{what}: border loops");
-            // Every boundary vertex within 2 % of the diagonal of the true border.
-            let mut count = vec![0u32; v.len()];
-            for tri in t {
-                for k in 0..3 {
-                    let (a, b) = (tri[k], tri[(k + 1) % 3]);
-                    let key = (a.min(b), a.max(b));
-                    let shared = t.iter().filter(|u| {
-                        (0..3).any(|j| (u[j].min(u[(j + 1) % 3]), u[j].max(u[(j + 1) % 3])) == key)
-                    });
-                    if shared.count() == 1 {
-                        count[a as usize] += 1;
-                    }
-                }
-            }
-            let mut d: Vec<f64> = (0..v.len())
-                .filter(|&i| count[i] > 0)
-                .map(|i| to_border(shape, v[i]) / diag)
+            let mut d: Vec<f64> = boundary_vertices(t)
+                .iter()
+                .filter_map(|&i| to_border(shape, v[i as usize]))
+                .map(|x| x / diag)
                 .collect();
             d.sort_by(f64::total_cmp);
             let worst = d.last().copied().unwrap_or(0.0);

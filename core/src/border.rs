@@ -3,7 +3,11 @@
 //! it shares a candidate edge with, projected onto its tangent plane, leave an
 //! angular gap wider than a threshold around its own generator. Inside a surface
 //! the adjacent clusters surround it (gaps of about 60°); where the data ends,
-//! there is nothing on one side (gaps near 180°).
+//! there is nothing on one side (gaps near 180°). It must also be at an end of the
+//! candidate graph: one of its candidate edges has fewer than two candidate
+//! facets. On closed surfaces the gap alone flagged about 5 % of the clusters
+//! (thin parts, sharp edges: 50 of 1000 on the demo shape, 53 on the horse);
+//! with both tests 3 and 14.
 //!
 //! Clusters, not points: the k nearest neighbours of a point on a randomly
 //! sampled surface bunch to one side often enough that a per-point gap test flags
@@ -128,6 +132,29 @@ pub fn try_border_clusters_in<'a, 'b, A: Alloc<'b>>(
                 cursor[x as usize] += 1;
             }
         }
+        // Clusters at an end of the candidate graph: one of their edges has fewer
+        // than two candidate facets (nothing on one side of it).
+        let frayed = s.try_alloc_slice::<bool>(m, false)?;
+        s.scratch(|t| -> Result<()> {
+            let count = t.try_alloc_slice::<u8>(cand.edges.len(), 0)?;
+            for fe in cand.facet_edges {
+                for &e in fe {
+                    if let Some(c) = count.get_mut(e as usize) {
+                        *c = c.saturating_add(1);
+                    }
+                }
+            }
+            for (e, &c) in cand.edges.iter().zip(count.iter()) {
+                if c < 2 {
+                    for &j in e {
+                        if let Some(f) = frayed.get_mut(j as usize) {
+                            *f = true;
+                        }
+                    }
+                }
+            }
+            Ok(())
+        })?;
         let angles = s.try_alloc_slice::<f32>(most as usize, 0.0)?;
         for j in 0..m {
             let pts = members.of(j);
@@ -158,7 +185,7 @@ pub fn try_border_clusters_in<'a, 'b, A: Alloc<'b>>(
                 .iter()
                 .map(|&k| generators[k as usize]);
             let (gap, dir) = largest_gap(generators[j], n, around, angles);
-            if gap > angle {
+            if gap > angle && frayed[j] {
                 out[j] = true;
                 let g = generators[j];
                 let reach = pts

@@ -466,11 +466,27 @@ fn problem_in<'s, 'b, A: Alloc<'b>>(
     }
     let penalties = s.try_alloc_slice::<f32>(masks.len(), 0.0)?;
     let on_border = |j: u32| open.get(j as usize).copied().unwrap_or(false);
-    for (p, e) in penalties[..ne].iter_mut().zip(cand.edges) {
-        if !(on_border(e[0]) && on_border(e[1])) {
-            *p = params.border_penalty;
+    // Candidate facets per edge (saturating at 2): an edge with a single one can
+    // never carry two (nothing lies beyond it: the end of a scan, a small piece of
+    // surface), so a penalty there would only price its one facet, and the data
+    // under it, out of the mesh. Such edges are free, like those between two
+    // clusters on the border of the data.
+    s.scratch(|t| -> Result<()> {
+        let count = t.try_alloc_slice::<u8>(ne, 0)?;
+        for fe in cand.facet_edges {
+            for &e in fe {
+                if let Some(c) = count.get_mut(e as usize) {
+                    *c = c.saturating_add(1).min(2);
+                }
+            }
         }
-    }
+        for ((p, e), &c) in penalties[..ne].iter_mut().zip(cand.edges).zip(count.iter()) {
+            if c >= 2 && !(on_border(e[0]) && on_border(e[1])) {
+                *p = params.border_penalty;
+            }
+        }
+        Ok(())
+    })?;
     let rows = s.try_alloc_slice::<[u32; 6]>(nf, [u32::MAX; 6])?;
     for f in 0..nf {
         rows[f] = select::join(cand.facet_edges[f], groups.facet_groups[f], ne as u32);

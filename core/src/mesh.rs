@@ -284,7 +284,6 @@ fn fill_holes<'b, S: Alloc<'b>>(
             poly[0] = first;
             beside[0] = f0;
             let mut len = 1usize;
-            let mut normal = face_normal(faces[f0 as usize].map(g));
             let mut closed = true;
             while cur != first {
                 let lo = holes.partition_point(|x| x.0 < cur);
@@ -299,102 +298,153 @@ fn fill_holes<'b, S: Alloc<'b>>(
                 poly[len] = cur;
                 beside[len] = holes[h].2;
                 len += 1;
-                normal = add(normal, face_normal(faces[holes[h].2 as usize].map(g)));
                 cur = holes[h].1;
             }
-            let on_border = poly[..len]
-                .iter()
-                .filter(|&&v| open.get(v as usize).copied().unwrap_or(false))
-                .count();
-            if closed && len >= MIN_OPEN_LOOP && 2 * on_border >= len {
-                out.open += 1;
-                for &v in &poly[..len] {
-                    if let Some(a) = along.get_mut(v as usize) {
-                        *a = true;
-                    }
+            if !closed {
+                out.left += 1;
+                continue;
+            }
+            // A loop through a vertex twice (holes touching at a corner) is cut
+            // there into simple loops, each handled on its own.
+            loop {
+                let pinch = (1..len)
+                    .find_map(|j| poly[..j].iter().position(|&v| v == poly[j]).map(|i| (i, j)));
+                let (lo, hi) = pinch.unwrap_or((0, len));
+                let sub = &mut poly[lo..hi];
+                let side = &mut beside[lo..hi];
+                let mut normal = [0.0f32; 3];
+                for &f in side.iter() {
+                    normal = add(normal, face_normal(faces[f as usize].map(g)));
                 }
-                let known = |a: u32, c: u32| {
-                    !faces_of(table, key(a, c)).is_empty() || added[..n_added].contains(&key(a, c))
-                };
-                let ears = fill_notches(
+                let n = sub.len();
+                let on_border = sub
+                    .iter()
+                    .filter(|&&v| open.get(v as usize).copied().unwrap_or(false))
+                    .count();
+                if n >= MIN_OPEN_LOOP && 2 * on_border >= n {
+                    out.open += 1;
+                    for &v in sub.iter() {
+                        if let Some(a) = along.get_mut(v as usize) {
+                            *a = true;
+                        }
+                    }
+                    let known = |a: u32, c: u32| {
+                        !faces_of(table, key(a, c)).is_empty()
+                            || added[..n_added].contains(&key(a, c))
+                    };
+                    let ears = fill_notches(
+                        faces,
+                        nf + out.faces,
+                        sub,
+                        side,
+                        generators,
+                        open,
+                        tol,
+                        known,
+                    );
+                    for &[a, _, c] in &faces[nf + out.faces..nf + out.faces + ears] {
+                        added[n_added] = key(a, c);
+                        n_added += 1;
+                    }
+                    out.faces += ears;
+                } else if n < 3 || n > max_hole as usize {
+                    out.left += 1;
+                } else if fill_loop(
                     faces,
                     nf + out.faces,
-                    &mut poly[..len],
-                    &mut beside[..len],
+                    sub,
+                    normal,
                     generators,
-                    open,
                     tol,
-                    known,
-                );
-                for &[a, _, c] in &faces[nf + out.faces..nf + out.faces + ears] {
-                    added[n_added] = key(a, c);
-                    n_added += 1;
-                }
-                out.faces += ears;
-                continue;
-            }
-            if !closed || len < 3 || len > max_hole as usize {
-                out.left += 1;
-                continue;
-            }
-            let exists = |a: u32, b: u32, added: &[u64]| {
-                !faces_of(table, key(a, b)).is_empty() || added.contains(&key(a, b))
-            };
-            let start_faces = nf + out.faces;
-            let mut ok = true;
-            while len > 3 {
-                let mut best: Option<(f32, usize)> = None;
-                for i in 0..len {
-                    let (a, b, c) = (poly[(i + len - 1) % len], poly[i], poly[(i + 1) % len]);
-                    if a == c
-                        || exists(a, c, &added[..n_added])
-                        || degenerate(g(a), g(b), g(c), tol)
-                    {
-                        continue;
+                    |a, c| {
+                        !faces_of(table, key(a, c)).is_empty()
+                            || added[..n_added].contains(&key(a, c))
+                    },
+                ) && !{
+                    // The last ear closes the loop: it must not repeat a face.
+                    let mut tri = faces[nf + out.faces + n - 3];
+                    tri.sort_unstable();
+                    faces_of(table, key(tri[0], tri[1])).iter().any(|&(_, f)| {
+                        let mut x = faces[f as usize];
+                        x.sort_unstable();
+                        x == tri
+                    })
+                } {
+                    // The ears' new edges are the first and third corners.
+                    let ears = n - 2;
+                    for k in 0..ears {
+                        let [a, _, c] = faces[nf + out.faces + k];
+                        added[n_added] = key(a, c);
+                        n_added += 1;
                     }
-                    let turn = dot(cross(sub(g(b), g(a)), sub(g(c), g(b))), normal);
-                    let cost = dist2(g(a), g(c)) * if turn < 0.0 { 16.0 } else { 1.0 };
-                    if best.is_none_or(|(bc, _)| cost < bc) {
-                        best = Some((cost, i));
-                    }
+                    out.faces += ears;
+                    out.holes += 1;
+                } else {
+                    out.left += 1;
                 }
-                let Some((_, i)) = best else {
-                    ok = false;
+                if pinch.is_none() {
                     break;
-                };
-                let (a, b, c) = (poly[(i + len - 1) % len], poly[i], poly[(i + 1) % len]);
-                faces[nf + out.faces] = [a, b, c];
-                out.faces += 1;
-                added[n_added] = key(a, c);
-                n_added += 1;
-                poly.copy_within(i + 1..len, i);
-                len -= 1;
-            }
-            if ok {
-                let (a, b, c) = (poly[0], poly[1], poly[2]);
-                let mut tri = [a, b, c];
-                tri.sort_unstable();
-                let duplicate = faces_of(table, key(a, b)).iter().any(|&(_, f)| {
-                    let mut x = faces[f as usize];
-                    x.sort_unstable();
-                    x == tri
-                });
-                ok = !duplicate && !degenerate(g(a), g(b), g(c), tol);
-                if ok {
-                    faces[nf + out.faces] = [a, b, c];
-                    out.faces += 1;
                 }
-            }
-            if ok {
-                out.holes += 1;
-            } else {
-                // Leave the loop as it was: drop this loop's ears.
-                out.faces = start_faces - nf;
-                out.left += 1;
+                poly.copy_within(hi..len, lo);
+                beside.copy_within(hi..len, lo);
+                len -= hi - lo;
             }
         }
         Ok(out)
     })
+}
+
+/// Cut the simple loop `poly` (a hole, traversed the way its filling faces
+/// turn, `normal` roughly their side) into `poly.len() - 2` ears written from
+/// `faces[at]` on, the shortest new edge first (an ear turning against `normal`
+/// costs 16 times more). An ear is never degenerate, never adds an edge the
+/// mesh already has (`known`, or an earlier ear of this loop). Returns false,
+/// with `faces` from `at` on left to be overwritten, when no admissible ear is
+/// left. `poly` is consumed.
+#[allow(clippy::too_many_arguments)]
+fn fill_loop(
+    faces: &mut [[u32; 3]],
+    at: usize,
+    poly: &mut [u32],
+    normal: V3,
+    generators: &[V3],
+    tol: f32,
+    known: impl Fn(u32, u32) -> bool,
+) -> bool {
+    let g = |j: u32| generators.get(j as usize).copied().unwrap_or([0.0; 3]);
+    let mut len = poly.len();
+    if len < 3 || at + len - 2 > faces.len() {
+        return false;
+    }
+    let mut ears = 0usize;
+    while len > 3 {
+        let mut best: Option<(f32, usize)> = None;
+        for i in 0..len {
+            let (a, b, c) = (poly[(i + len - 1) % len], poly[i], poly[(i + 1) % len]);
+            let repeats = faces[at..at + ears]
+                .iter()
+                .any(|f| key(f[0], f[2]) == key(a, c));
+            if a == c || known(a, c) || repeats || degenerate(g(a), g(b), g(c), tol) {
+                continue;
+            }
+            let turn = dot(cross(sub(g(b), g(a)), sub(g(c), g(b))), normal);
+            let cost = dist2(g(a), g(c)) * if turn < 0.0 { 16.0 } else { 1.0 };
+            if best.is_none_or(|(bc, _)| cost < bc) {
+                best = Some((cost, i));
+            }
+        }
+        let Some((_, i)) = best else { return false };
+        faces[at + ears] = [poly[(i + len - 1) % len], poly[i], poly[(i + 1) % len]];
+        ears += 1;
+        poly.copy_within(i + 1..len, i);
+        len -= 1;
+    }
+    let (a, b, c) = (poly[0], poly[1], poly[2]);
+    if degenerate(g(a), g(b), g(c), tol) {
+        return false;
+    }
+    faces[at + ears] = [a, b, c];
+    true
 }
 
 /// Widest angle (degrees) at a notch: a vertex of a loop kept open that is not

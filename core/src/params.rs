@@ -57,11 +57,13 @@ pub struct Params {
     /// hole filling (0: none). Default 64.
     pub max_hole: u32,
     /// Border of the data, in degrees: a cluster whose adjacent clusters leave an
-    /// angular gap wider than this around it lies where the data ends (an open
+    /// angular gap wider than this around it, and that has a candidate edge with
+    /// fewer than two candidate facets, lies where the data ends (an open
     /// surface, a scan's edge, a hole in the data). Edges between two such
-    /// clusters may end with one facet at no cost, and boundary loops along them
-    /// stay open; everywhere else the border penalty and hole filling apply.
-    /// 360 turns detection off (every input treated as closed). Default 150.
+    /// clusters may end with one facet at no cost (as may any edge with a single
+    /// candidate facet), and boundary loops mostly along them stay open, their
+    /// vertices moved onto the data's border; everywhere else the border penalty
+    /// and hole filling apply. 360 turns detection off. Default 150.
     pub border_angle: f32,
     /// Branch-and-bound search nodes allowed in facet selection. Default 200.
     pub node_limit: u64,
