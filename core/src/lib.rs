@@ -50,6 +50,7 @@ pub mod arena;
 pub mod border;
 pub mod budget;
 pub mod candidates;
+pub mod clean;
 pub mod cluster;
 pub mod error;
 pub mod knn;
@@ -66,7 +67,8 @@ pub mod split;
 pub mod validate;
 
 pub use arena::{Alloc, Arena, Exhausted, Scratch};
-pub use budget::{arena_bytes, cluster_bytes, mesh_capacity};
+pub use budget::{arena_bytes, clean_bytes, cluster_bytes, mesh_capacity};
+pub use clean::{clean, CleanStats};
 pub use cluster::{ClusterStats, Clusters};
 pub use error::{Degeneracy, Error, Result};
 pub use knn::Neighbours;
