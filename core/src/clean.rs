@@ -140,7 +140,16 @@ pub fn clean(
             let (spacing, _) = mean_and_deviation(kept.map(|(&d, _)| d));
             let link = LINK_SPACINGS * spacing as f32;
             stats.link = link;
-            drop_fragments(s, points, knn, k, link * link, params.min_fragment, keep, &mut stats)?;
+            drop_fragments(
+                s,
+                points,
+                knn,
+                k,
+                link * link,
+                params.min_fragment,
+                keep,
+                &mut stats,
+            )?;
         }
         Ok(())
     })?;
@@ -171,7 +180,10 @@ fn mean_and_deviation(values: impl Iterator<Item = f32> + Clone) -> (f64, f64) {
         return (0.0, 0.0);
     }
     let mu = sum / count as f64;
-    let var = values.map(|v| (v as f64 - mu) * (v as f64 - mu)).sum::<f64>() / count as f64;
+    let var = values
+        .map(|v| (v as f64 - mu) * (v as f64 - mu))
+        .sum::<f64>()
+        / count as f64;
     (mu, libm::sqrt(var))
 }
 
@@ -261,9 +273,9 @@ fn drop_fragments(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::budget::clean_bytes;
     use crate::math::Rng;
     use crate::progress::Silent;
-    use crate::budget::clean_bytes;
     use crate::sample::{fill, scene_fragment, Shape};
     use core::mem::MaybeUninit;
     use std::vec;
@@ -321,7 +333,10 @@ mod tests {
             let far = 4.0 * s.spacing;
             for (i, q) in p.iter().enumerate().skip(20_000) {
                 let off = (libm::sqrtf(dist2(*q, [0.0; 3])) - 1.0).abs();
-                assert!(!keep[i] || off < far, "sigma {sigma}: outlier {i} at {off} kept");
+                assert!(
+                    !keep[i] || off < far,
+                    "sigma {sigma}: outlier {i} at {off} kept"
+                );
             }
             let surface_lost = keep[..20_000].iter().filter(|&&k| !k).count();
             assert!(
@@ -333,7 +348,10 @@ mod tests {
             // spacings of it); with 1 % outliers the deviation is wide enough
             // that no surface point goes.
             let planted_kept = keep[20_000..].iter().filter(|&&k| k).count();
-            assert!(planted_kept < 100, "sigma {sigma}: {planted_kept} of 200 kept");
+            assert!(
+                planted_kept < 100,
+                "sigma {sigma}: {planted_kept} of 200 kept"
+            );
         }
     }
 
@@ -343,7 +361,11 @@ mod tests {
         let p = sample(Shape::Scene, n);
         let nf = scene_fragment(n);
         let (keep, s) = run(&p, &params(0.0, 64)).unwrap();
-        assert_eq!((s.fragments, s.fragment_points, s.pieces), (1, nf as u32, 2), "{s:?}");
+        assert_eq!(
+            (s.fragments, s.fragment_points, s.pieces),
+            (1, nf as u32, 2),
+            "{s:?}"
+        );
         assert!(keep[..n - nf].iter().all(|&k| k), "an object lost points");
         assert!(keep[n - nf..].iter().all(|&k| !k), "the fragment survived");
         // Below the fragment's size nothing goes; off, nothing either.
@@ -361,7 +383,11 @@ mod tests {
             q.push([c + 0.1 * s0.spacing * rng.unit_f64() as f32, 0.0, 0.0]);
         }
         let (keep, s) = run(&q, &params(0.0, 64)).unwrap();
-        assert_eq!((s.fragments, s.fragment_points, s.kept), (1, 8, 5000), "{s:?}");
+        assert_eq!(
+            (s.fragments, s.fragment_points, s.kept),
+            (1, 8, 5000),
+            "{s:?}"
+        );
         assert!(keep[5000..].iter().all(|&k| !k));
     }
 
@@ -385,13 +411,22 @@ mod tests {
         let mut keep = vec![true; 499];
         assert_eq!(
             clean(&arena, &p, &Params::default(), &mut keep, &mut Silent),
-            Err(Error::KeepLength { points: 500, keep: 499 })
+            Err(Error::KeepLength {
+                points: 500,
+                keep: 499
+            })
         );
         let mut keep = vec![true; 500];
         for sigma in [f32::NAN, -1.0, f32::INFINITY] {
             let e = clean(&arena, &p, &params(sigma, 0), &mut keep, &mut Silent).unwrap_err();
             assert!(
-                matches!(e, Error::BadParameter { name: "outlier_sigma", .. }),
+                matches!(
+                    e,
+                    Error::BadParameter {
+                        name: "outlier_sigma",
+                        ..
+                    }
+                ),
                 "{sigma}: {e:?}"
             );
         }
@@ -404,7 +439,10 @@ mod tests {
             q.extend([c, [c[0] + 0.001, c[1], c[2]], [c[0], c[1] + 0.001, c[2]]]);
         }
         let mut keep = vec![true; 90];
-        let specks = Params { k: 2, ..params(0.0, 64) };
+        let specks = Params {
+            k: 2,
+            ..params(0.0, 64)
+        };
         let e = clean(&arena, &q, &specks, &mut keep, &mut Silent).unwrap_err();
         assert_eq!(
             e,
