@@ -3,7 +3,7 @@
 //! caller compacts them and then runs [`reconstruct`](crate::reconstruct) on
 //! what is left (in the same buffer: cleaning leaves nothing in the arena).
 //!
-//! Both filters work on the exact k-NN graph of [`knn`](crate::knn) (`k` of
+//! Both filters work on the exact k-NN graph of [`knn`] (`k` of
 //! [`Params`]), with `d_i` the mean distance from point `i` to its `k` nearest:
 //!
 //! 1. **Outliers** ([`Params::outlier_sigma`] `= t > 0`): with `μ` and `σ` the
@@ -466,5 +466,23 @@ mod tests {
         let a = run(&p, &params(2.5, 64)).unwrap();
         let b = run(&p, &params(2.5, 64)).unwrap();
         assert_eq!(a, b);
+    }
+
+    #[test]
+    fn a_progress_callback_can_cancel_cleaning() {
+        struct Cancel;
+        impl Progress for Cancel {
+            fn report(&mut self, stage: Stage, _: u64, _: u64) -> crate::Flow {
+                assert_eq!(stage, Stage::Clean);
+                crate::Flow::Cancel
+            }
+        }
+        let p = sample(Shape::Sphere, 500);
+        let mut buf = vec![MaybeUninit::uninit(); clean_bytes(p.len(), &Params::default())];
+        let arena = Arena::new(&mut buf);
+        let mut keep = vec![true; 500];
+        let r = clean(&arena, &p, &Params::default(), &mut keep, &mut Cancel);
+        assert_eq!(r, Err(Error::Cancelled));
+        assert_eq!(arena.used(), 0);
     }
 }
