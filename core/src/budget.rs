@@ -1,10 +1,11 @@
 //! How much arena a run needs: [`arena_bytes`] for [`reconstruct`](crate::reconstruct),
-//! [`cluster_bytes`] for [`cluster`](crate::cluster()).
+//! [`cluster_bytes`] for [`cluster`](crate::cluster()), [`clean_bytes`] for
+//! [`clean`](crate::clean()).
 //!
-//! Both are upper bounds, never estimates: a run on `n` points with the same
+//! All three are upper bounds, never estimates: a run on `n` points with the same
 //! [`Params`] never fails with [`Error::Exhausted`](crate::Error::Exhausted) in an
 //! arena of that size (tested on every shared cloud and generated shapes, down to
-//! the byte: `arena-tests/tests/memory_budget.rs`). The bound is the largest, over
+//! the byte: `arena-tests/tests/memory_budget.rs`, `clean.rs`). The bound is the largest, over
 //! the stages, of what is live while the stage runs, each allocation counted at
 //! its worst alignment padding ([`padded_bytes`]):
 //!
@@ -20,6 +21,12 @@
 //! (twice `clusters` by default), or the number of connected components of the
 //! neighbour graph when larger (at most `n / (k + 1)`: every point has its k
 //! neighbours in its component).
+//!
+//! [`clean_bytes`] bounds the cleaning pre-pass [`clean`](crate::clean()) in the
+//! same way: the k-NN table plus the larger of the grid's scratch and the
+//! filters' three per-point arrays (4 + 4 + 4 bytes), never more than the
+//! neighbour stage of `reconstruct`, so a buffer of [`arena_bytes`] serves
+//! both, one after the other.
 //!
 //! What a run really uses is less, and depends on the data: the reverse table is
 //! one or two entries per point on real scans rather than `k`, the grid a third of
@@ -57,6 +64,20 @@ fn buffer_for(bound: usize) -> usize {
 pub fn cluster_bytes(n: usize, params: &Params) -> usize {
     let (peak, _) = stages(n, params);
     buffer_for(round_up(peak))
+}
+
+/// Arena bytes that are always enough for [`clean`](crate::clean()) on `n` points: the k-NN
+/// table (`4 k` per point) plus the larger of the grid's scratch
+/// ([`knn::grid_scratch_bytes`]) and the three per-point arrays of the filters (12
+/// per point), plus 7 for a buffer that does not start on an 8-byte boundary.
+/// About 140 bytes per point at k = 12; never more than
+/// [`arena_bytes`] for the same `n` and `params`.
+pub fn clean_bytes(n: usize, params: &Params) -> usize {
+    let k = params.k.clamp(1, MAX_K);
+    let rows = padded_bytes::<u32>(n.saturating_mul(k));
+    let filters = padded_bytes::<f32>(n).saturating_add(padded_bytes::<u32>(n).saturating_mul(2));
+    let bound = rows.saturating_add(knn::grid_scratch_bytes(n).max(filters));
+    buffer_for(round_up(bound))
 }
 
 /// Arena bytes that are always enough for [`reconstruct`](crate::reconstruct) on

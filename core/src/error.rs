@@ -88,6 +88,27 @@ pub enum Error {
         /// Bytes of the capacity still free at that moment.
         available: usize,
     },
+    /// The `keep` slice given to [`crate::clean()`] does not match the points.
+    KeepLength {
+        /// Points given.
+        points: usize,
+        /// Length of `keep`.
+        keep: usize,
+    },
+    /// Cleaning ([`crate::clean()`]) would leave fewer points than a surface
+    /// needs.
+    TooFewKept {
+        /// Points given.
+        points: usize,
+        /// Points cleaning would keep.
+        kept: usize,
+        /// Points required (at least 4, and more than `k`).
+        needed: usize,
+        /// Points removed as outliers.
+        outliers: usize,
+        /// Points removed in small fragments.
+        fragment_points: usize,
+    },
 }
 
 /// Result alias used across core.
@@ -147,6 +168,22 @@ impl fmt::Display for Error {
                  ({requested} more requested, {available} left): the candidate graph is too \
                  dense, typically from too few points per cluster; use fewer clusters or \
                  raise the meshing memory per cluster"
+            ),
+            Error::KeepLength { points, keep } => {
+                write!(f, "keep has {keep} entries for {points} points")
+            }
+            Error::TooFewKept {
+                points,
+                kept,
+                needed,
+                outliers,
+                fragment_points,
+            } => write!(
+                f,
+                "cleaning would remove {} of {points} points ({outliers} outliers, \
+                 {fragment_points} in small fragments), leaving {kept}; a surface needs at \
+                 least {needed}: lower the outlier filter or the fragment size",
+                points - kept.min(points)
             ),
         }
     }

@@ -20,7 +20,7 @@
 //! `knn(i)` plus the *reverse-only* edges (`i` is in `knn(j)` but `j` is not in
 //! `knn(i)`), kept in a compressed table: typically a third of `k` per point.
 
-use crate::arena::{padded_bytes, Arena};
+use crate::arena::{padded_bytes, Alloc, Arena};
 use crate::error::{Error, Result};
 use crate::math::{dist2, V3};
 use crate::params::MAX_K;
@@ -241,11 +241,52 @@ pub fn try_neighbours_in<'a>(
         return Err(Error::BadNeighbours { k, points: n });
     }
     tick(progress, Stage::Neighbours, 0, n as u64)?;
-    tick(progress, Stage::Neighbours, 0, n as u64)?;
-    let knn = arena.try_alloc_slice::<u32>(n * k, 0)?;
+    let rows = try_knn_rows_in(arena, points, k, Stage::Neighbours, progress)?;
+    let knn: &'a [u32] = rows.knn;
+    let (rev_start, rev) = reverse_edges_in(arena, knn, k)?;
+
+    tick(progress, Stage::Neighbours, n as u64, n as u64)?;
+    Ok(Neighbours {
+        k,
+        knn,
+        rev_start,
+        rev,
+        spacing: rows.spacing,
+        linear_scans: rows.linear_scans,
+    })
+}
+
+/// The k-NN table alone (no reverse edges): what [`try_knn_rows_in`] returns.
+pub struct KnnRows<'a> {
+    /// Row `i` (`knn[i*k .. i*k+k]`): the k nearest other points of `i`, nearest
+    /// first, ties by index.
+    pub knn: &'a mut [u32],
+    /// Mean distance from a point to its k nearest neighbours.
+    pub spacing: f32,
+    /// Queries that fell back to a linear scan.
+    pub linear_scans: u32,
+}
+
+/// The k nearest neighbours of every point, allocated from `a` (`4 k` bytes per
+/// point; the grid is scratch on top, [`grid_scratch_bytes`]). Progress is
+/// reported under `stage`. `points` must be finite and `k < points.len()`
+/// (else [`Error::BadNeighbours`]).
+pub fn try_knn_rows_in<'a, 'b, A: Alloc<'b>>(
+    a: &'a A,
+    points: &[V3],
+    k: usize,
+    stage: Stage,
+    progress: &mut dyn Progress,
+) -> Result<KnnRows<'a>> {
+    let n = points.len();
+    if k == 0 || k > MAX_K || k >= n {
+        return Err(Error::BadNeighbours { k, points: n });
+    }
+    tick(progress, stage, 0, n as u64)?;
+    let knn = a.try_alloc_slice::<u32>(n * k, 0)?;
     let mut total_dist = 0.0f64;
     let mut linear_scans = 0u32;
-    arena.scratch(|s| -> Result<()> {
+    a.scratch(|s| -> Result<()> {
         let grid = build_grid(s, points, k)?;
         let n_cells = grid.cell_keys.len();
         let mut done = 0u64;
@@ -275,20 +316,14 @@ pub fn try_neighbours_in<'a>(
                 }
                 done += 1;
                 if done % 8192 == 0 {
-                    tick(progress, Stage::Neighbours, done, n as u64)?;
+                    tick(progress, stage, done, n as u64)?;
                 }
             }
         }
         Ok(())
     })?;
-    let (rev_start, rev) = reverse_edges_in(arena, knn, k)?;
-
-    tick(progress, Stage::Neighbours, n as u64, n as u64)?;
-    Ok(Neighbours {
-        k,
+    Ok(KnnRows {
         knn,
-        rev_start,
-        rev,
         spacing: (total_dist / (n * k) as f64) as f32,
         linear_scans,
     })

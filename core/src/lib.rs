@@ -33,6 +33,9 @@
 //! - Deterministic: the same input and [`Params`] give bit-identical results.
 //!
 //! ## The pipeline (see `../shared/DESIGN.md`, steps 1-7)
+//! 0. [`clean()`] (optional, a separate pre-pass the caller runs first and
+//!    compacts after): statistical outliers and small isolated fragments; its
+//!    arena bound is [`clean_bytes`], never more than [`arena_bytes`].
 //! 1. [`knn`]: sparse uniform grid and certified k nearest neighbours.
 //! 2. [`normals`]: given normals, or PCA of each neighbourhood.
 //! 3. [`quadric`]: area-weighted plane quadrics; diffused quadrics (seed Eq. 1-3).
@@ -50,6 +53,7 @@ pub mod arena;
 pub mod border;
 pub mod budget;
 pub mod candidates;
+pub mod clean;
 pub mod cluster;
 pub mod error;
 pub mod knn;
@@ -66,7 +70,8 @@ pub mod split;
 pub mod validate;
 
 pub use arena::{Alloc, Arena, Exhausted, Scratch};
-pub use budget::{arena_bytes, cluster_bytes, mesh_capacity};
+pub use budget::{arena_bytes, clean_bytes, cluster_bytes, mesh_capacity};
+pub use clean::{clean, CleanStats};
 pub use cluster::{ClusterStats, Clusters};
 pub use error::{Degeneracy, Error, Result};
 pub use knn::Neighbours;

@@ -85,6 +85,18 @@ pub struct Params {
     /// every test cloud with 12 or more points per cluster of the cap, while
     /// [`crate::arena_bytes`] stays within twice the measured peak.
     pub mesh_bytes_per_cluster: u32,
+    /// Statistical outlier filter of the cleaning pre-pass ([`crate::clean()`]),
+    /// in standard deviations: a point whose mean distance to its `k` nearest
+    /// neighbours exceeds the mean of that distance over all points by more than
+    /// this many standard deviations is removed. Finite, `>= 0`; 0 turns the
+    /// filter off. Usual values 2 to 3. Default 0 (off).
+    pub outlier_sigma: f32,
+    /// Fragment filter of the cleaning pre-pass ([`crate::clean()`]): connected
+    /// pieces of the cloud (neighbours no farther apart than
+    /// [`crate::clean::LINK_SPACINGS`] average spacings) with fewer points than
+    /// this are dropped; the largest piece is always kept. 0 turns the filter
+    /// off. Default 64.
+    pub min_fragment: u32,
 }
 
 impl Default for Params {
@@ -109,6 +121,8 @@ impl Default for Params {
             node_limit: 200,
             refine_rounds: 0,
             mesh_bytes_per_cluster: 0,
+            outlier_sigma: 0.0,
+            min_fragment: 64,
         }
     }
 }
@@ -134,6 +148,11 @@ impl Params {
         }
     }
 
+    /// Whether [`crate::clean()`] has anything to do: one of its filters is on.
+    pub fn cleans(&self) -> bool {
+        self.outlier_sigma > 0.0 || self.min_fragment > 0
+    }
+
     /// Check every field against its documented range.
     pub fn validate(&self) -> Result<()> {
         let bad = |name, value: f32| Err(Error::BadParameter { name, value });
@@ -156,6 +175,9 @@ impl Params {
             if !(v.is_finite() && v >= 0.0) {
                 return bad(name, v);
             }
+        }
+        if !(self.outlier_sigma.is_finite() && self.outlier_sigma >= 0.0) {
+            return bad("outlier_sigma", self.outlier_sigma);
         }
         if !(self.border_angle.is_finite() && self.border_angle > 0.0 && self.border_angle <= 360.0)
         {

@@ -5,6 +5,9 @@
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 #[non_exhaustive]
 pub enum Stage {
+    /// The optional cleaning pre-pass ([`crate::clean()`]): neighbours, outliers,
+    /// fragments.
+    Clean,
     /// Input checks (finite, enough points, not degenerate).
     Validate,
     /// Grid and k nearest neighbours.
@@ -27,6 +30,7 @@ impl Stage {
     /// A short lower-case name for reports.
     pub fn name(self) -> &'static str {
         match self {
+            Stage::Clean => "clean",
             Stage::Validate => "validate",
             Stage::Neighbours => "neighbours",
             Stage::Quadrics => "quadrics",

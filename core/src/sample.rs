@@ -31,6 +31,44 @@ pub enum Shape {
     /// Open: the unit sphere without the cap z > 0.7 (border: the circle of radius
     /// √0.51 at z = 0.7).
     HoledSphere,
+    /// Several objects: a sphere of radius 0.45 at (-0.5, 0, 0) and a cube of
+    /// half-edge 0.3 at (0.5, 0, 0) (0.25 apart), sampled by area, plus a stray
+    /// fragment: [`scene_fragment`]`(n)` points (40 from 1000 points on) on a
+    /// sphere of radius 0.04 at (0, 0.7, 0), the last points of the cloud.
+    Scene,
+}
+
+/// Points of [`Shape::Scene`]'s stray fragment in a cloud of `n`: 40, or 4 % of
+/// smaller clouds.
+pub fn scene_fragment(n: usize) -> usize {
+    if n >= 1000 {
+        40
+    } else {
+        n / 25
+    }
+}
+
+/// Centre of [`Shape::Scene`]'s sphere (radius 0.45).
+pub const SCENE_SPHERE: [f64; 3] = [-0.5, 0.0, 0.0];
+/// Centre of [`Shape::Scene`]'s cube (half-edge 0.3).
+pub const SCENE_CUBE: [f64; 3] = [0.5, 0.0, 0.0];
+/// Centre of [`Shape::Scene`]'s stray fragment (a sphere of radius 0.04).
+pub const SCENE_FRAGMENT: [f64; 3] = [0.0, 0.7, 0.0];
+
+/// A point of [`Shape::Scene`]: on the fragment when `fragment`, else on the
+/// sphere or the cube with probability proportional to their areas.
+fn scene_surface(rng: &mut Rng, fragment: bool) -> [f64; 3] {
+    let at = |c: [f64; 3], r: f64, p: [f64; 3]| [c[0] + r * p[0], c[1] + r * p[1], c[2] + r * p[2]];
+    if fragment {
+        return at(SCENE_FRAGMENT, 0.04, unit_sphere(rng));
+    }
+    let sphere = 4.0 * PI * 0.45 * 0.45;
+    let cube = 24.0 * 0.3 * 0.3;
+    if rng.unit_f64() * (sphere + cube) < sphere {
+        at(SCENE_SPHERE, 0.45, unit_sphere(rng))
+    } else {
+        at(SCENE_CUBE, 1.0, box_surface(rng, [0.3; 3]))
+    }
 }
 
 impl Shape {
@@ -46,6 +84,7 @@ impl Shape {
             "tube" => Shape::Tube,
             "wave" => Shape::Wave,
             "holed-sphere" => Shape::HoledSphere,
+            "scene" => Shape::Scene,
             _ => return None,
         })
     }
@@ -183,7 +222,8 @@ fn wave_surface(rng: &mut Rng) -> [f64; 3] {
 /// Gaussian noise of standard deviation `noise` (absolute units).
 pub fn fill(shape: Shape, seed: u64, noise: f64, out: &mut [V3]) {
     let mut rng = Rng::new(seed);
-    for o in out.iter_mut() {
+    let fragment_from = out.len() - scene_fragment(out.len());
+    for (i, o) in out.iter_mut().enumerate() {
         let p = match shape {
             Shape::Sphere => unit_sphere(&mut rng),
             Shape::Torus => torus_surface(&mut rng, 0.7, 0.25),
@@ -206,6 +246,7 @@ pub fn fill(shape: Shape, seed: u64, noise: f64, out: &mut [V3]) {
                     break p;
                 }
             },
+            Shape::Scene => scene_surface(&mut rng, i >= fragment_from),
         };
         let mut q = [0.0f32; 3];
         for a in 0..3 {

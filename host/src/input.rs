@@ -90,7 +90,32 @@ pub fn shape_name(s: Shape) -> &'static str {
         Shape::Tube => "tube",
         Shape::Wave => "wave",
         Shape::HoledSphere => "holed-sphere",
+        Shape::Scene => "scene",
         _ => "demo",
+    }
+}
+
+impl Prepared {
+    /// Only the points with `keep[i]` (and their normals), normalised again: the
+    /// frame is fitted to what is left, so core's coordinates span `[-1, 1]` for
+    /// the cleaned cloud, as they would had it been read that way.
+    pub fn keep(self, keep: &[bool]) -> Prepared {
+        let kept = |i: &usize| keep.get(*i).copied().unwrap_or(true);
+        let original: Vec<[f64; 3]> = (0..self.original.len())
+            .filter(kept)
+            .map(|i| self.original[i])
+            .collect();
+        let normals = self
+            .normals
+            .map(|n| (0..n.len()).filter(kept).map(|i| n[i]).collect());
+        let frame = Frame::fit(&original);
+        Prepared {
+            name: self.name,
+            points: original.iter().map(|&p| frame.to_core(p)).collect(),
+            normals,
+            frame,
+            original,
+        }
     }
 }
 

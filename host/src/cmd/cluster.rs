@@ -1,6 +1,8 @@
 //! `vsaqem cluster`: the input points coloured by cluster, plus the generators.
 
-use crate::cmd::{arena_buffer, label_colour, MemoryArgs};
+use crate::cmd::{
+    arena_buffer, clean_input, clean_json, clean_text, label_colour, with_clean, MemoryArgs,
+};
 use crate::input::{self, Prepared};
 use crate::io::{write_atomic, write_points_ply};
 use crate::json;
@@ -9,7 +11,7 @@ use clap::Args;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 use vsaqem_core::sample::Shape;
-use vsaqem_core::{Clustered, Params};
+use vsaqem_core::{CleanStats, Clustered, Params};
 
 /// Where the points come from.
 #[derive(Args, Debug, Clone)]
@@ -18,7 +20,8 @@ pub struct InputArgs {
     /// present). Without it, a built-in generated sample is used.
     pub input: Option<PathBuf>,
     /// Built-in sample when no input is given: demo, sphere, torus, box, cylinder
-    /// (closed); hemisphere, tube, wave, holed-sphere (open surfaces).
+    /// (closed); hemisphere, tube, wave, holed-sphere (open surfaces); scene (a
+    /// sphere and a cube apart, plus a stray fragment of 40 points).
     #[arg(long, default_value = "demo", value_parser = parse_shape)]
     pub sample: Shape,
     /// Points of the built-in sample.
@@ -34,9 +37,54 @@ fn parse_shape(s: &str) -> Result<Shape, String> {
     Shape::from_name(s).ok_or_else(|| {
         format!(
             "unknown sample '{s}': use demo, sphere, torus, box, cylinder (closed), \
-             hemisphere, tube, wave or holed-sphere (open)"
+             hemisphere, tube, wave or holed-sphere (open), or scene (two objects and a \
+             stray fragment)"
         )
     })
+}
+
+/// The cleaning pre-pass (`vsaqem_core::clean`); defaults are
+/// `vsaqem_core::Params::default()`.
+#[derive(Args, Debug, Clone)]
+pub struct CleanArgs {
+    /// Remove statistical outliers: points whose mean distance to their --knn
+    /// nearest neighbours is more than SIGMA standard deviations above the mean
+    /// of all points (e.g. 2 or 3; 0: off).
+    #[arg(long = "outliers", value_name = "SIGMA", allow_hyphen_values = true,
+          default_value_t = Params::default().outlier_sigma, value_parser = parse_sigma)]
+    pub outlier_sigma: f32,
+    /// Drop isolated pieces of fewer than N points (pieces: neighbours within
+    /// 4 average spacings of each other); the largest piece is always kept
+    /// (0: off).
+    #[arg(long, value_name = "N", allow_hyphen_values = true,
+          default_value_t = Params::default().min_fragment, value_parser = parse_fragment)]
+    pub min_fragment: u32,
+}
+
+fn parse_sigma(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        _ => Err(format!(
+            "'{s}' is not a number of standard deviations >= 0 (e.g. 2 or 3; 0: off)"
+        )),
+    }
+}
+
+fn parse_fragment(s: &str) -> Result<u32, String> {
+    s.trim()
+        .parse::<u32>()
+        .map_err(|_| format!("'{s}' is not a whole number of points >= 0 (0: off)"))
+}
+
+impl CleanArgs {
+    /// `params` with these cleaning settings.
+    pub fn apply(&self, params: Params) -> Params {
+        Params {
+            outlier_sigma: self.outlier_sigma,
+            min_fragment: self.min_fragment,
+            ..params
+        }
+    }
 }
 
 /// Clustering parameters; defaults are `vsaqem_core::Params::default()`.
@@ -97,6 +145,8 @@ pub struct Cmd {
     #[command(flatten)]
     pub input: InputArgs,
     #[command(flatten)]
+    pub clean: CleanArgs,
+    #[command(flatten)]
     pub cluster: ClusterArgs,
     #[command(flatten)]
     pub memory: MemoryArgs,
@@ -131,12 +181,13 @@ pub fn read_input(args: &InputArgs, clock: &mut StageClock) -> Result<Prepared, 
 pub fn run(cmd: &Cmd) -> Result<(), String> {
     let mut clock = StageClock::new(!cmd.quiet);
     let input = read_input(&cmd.input, &mut clock)?;
-    let params = cmd.cluster.params();
-    let n = input.points.len();
-    let bytes = cmd
-        .memory
-        .arena_size(vsaqem_core::cluster_bytes(n, &params), n)?;
+    let params = cmd.clean.apply(cmd.cluster.params());
+    let read = input.points.len();
+    let needed = with_clean(vsaqem_core::cluster_bytes(read, &params), read, &params);
+    let bytes = cmd.memory.arena_size(needed, read)?;
     let mut buf = arena_buffer(bytes);
+    let (input, clean) =
+        clean_input(input, &params, &mut buf, &mut clock).inspect_err(|_| clock.finish())?;
     let arena = vsaqem_core::Arena::new(&mut buf);
     let out = vsaqem_core::cluster(
         &arena,
@@ -152,6 +203,8 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
     clock.record("write", t.elapsed());
     let report = Report {
         input: &input,
+        read,
+        clean: clean.as_ref(),
         out: &out,
         params: &params,
         clock: &clock,
@@ -179,6 +232,9 @@ fn write_clusters(path: &Path, input: &Prepared, out: &Clustered) -> Result<(), 
 
 struct Report<'r> {
     input: &'r Prepared,
+    /// Points read, before cleaning.
+    read: usize,
+    clean: Option<&'r CleanStats>,
     out: &'r Clustered<'r>,
     params: &'r Params,
     clock: &'r StageClock,
@@ -198,7 +254,8 @@ impl Report<'_> {
             "normals by PCA"
         };
         format!(
-            "input      {}: {n} points, {normals}, bounding-box diagonal {diag:.6}\n\
+            "input      {}: {} points, {normals}, bounding-box diagonal {diag:.6}\n\
+             clean      {}\n\
              neighbours k = {}, average spacing {:.3}% of the diagonal\n\
              clusters   {} ({} initial, +{} by splitting in {} batches, {} batches undone), {} passes{}\n\
              max error  {:.3}% of the diagonal (tolerance {:.3}%)\n\
@@ -206,6 +263,8 @@ impl Report<'_> {
              memory     arena peak {} bytes ({:.1} bytes/point), {} reserved\n\
              output     {}: {n} points coloured by cluster + {} generators (black)\n",
             self.input.name,
+            self.read,
+            clean_text(self.clean, self.params),
             s.k,
             s.spacing as f64 / self.out.bounds.diag as f64 * 100.0,
             c.clusters,
@@ -236,8 +295,9 @@ impl Report<'_> {
             .num(
                 "diagonal",
                 self.out.bounds.diag as f64 * self.input.frame.scale,
-            )
-            .num("k", s.k as f64)
+            );
+        clean_json(&mut o, self.clean, self.read, self.params);
+        o.num("k", s.k as f64)
             .num(
                 "spacing_relative",
                 s.spacing as f64 / self.out.bounds.diag as f64,

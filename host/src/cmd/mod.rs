@@ -5,8 +5,11 @@ pub mod eval;
 pub mod reconstruct;
 pub mod render;
 
+use crate::input::Prepared;
+use crate::progress::StageClock;
 use clap::Args;
 use std::mem::MaybeUninit;
+use vsaqem_core::{Arena, CleanStats, Error, Params};
 
 /// The arena budget of a run.
 #[derive(Args, Debug, Clone)]
@@ -90,6 +93,108 @@ pub fn arena_buffer(bytes: usize) -> Vec<MaybeUninit<u8>> {
     let mut v = Vec::with_capacity(bytes);
     v.resize(bytes, MaybeUninit::uninit());
     v
+}
+
+/// The arena a run on `n` points needs when `run` bytes are enough for the
+/// command itself: also enough for the cleaning pre-pass when it is on (it runs
+/// first, in the same buffer).
+pub fn with_clean(run: usize, n: usize, params: &Params) -> usize {
+    if params.cleans() {
+        run.max(vsaqem_core::clean_bytes(n, params))
+    } else {
+        run
+    }
+}
+
+/// The cleaning pre-pass (`vsaqem_core::clean`) in `buf`, then the kept points
+/// compacted and normalised again. `None` when both filters are off; the input
+/// is handed back untouched when nothing is removed, so the output is then the
+/// same as without cleaning.
+pub fn clean_input(
+    input: Prepared,
+    params: &Params,
+    buf: &mut [MaybeUninit<u8>],
+    clock: &mut StageClock,
+) -> Result<(Prepared, Option<CleanStats>), String> {
+    if !params.cleans() {
+        return Ok((input, None));
+    }
+    let arena = Arena::new(buf);
+    let mut keep = vec![true; input.points.len()];
+    let stats = match vsaqem_core::clean(&arena, &input.points, params, &mut keep, clock) {
+        Ok(s) => s,
+        Err(e @ Error::TooFewKept { .. }) => {
+            return Err(format!(
+                "{}: {e} (--outliers {}, --min-fragment {})",
+                input.name, params.outlier_sigma, params.min_fragment
+            ))
+        }
+        Err(e) => return Err(format!("{}: {e}", input.name)),
+    };
+    if stats.kept == stats.points {
+        return Ok((input, Some(stats)));
+    }
+    Ok((input.keep(&keep), Some(stats)))
+}
+
+/// The report's `clean` line (without the label).
+pub fn clean_text(stats: Option<&CleanStats>, params: &Params) -> String {
+    let Some(s) = stats else {
+        return "off".to_string();
+    };
+    let outliers = if params.outlier_sigma > 0.0 {
+        format!(
+            "{} removed (over {} standard deviations)",
+            count(s.outliers, "outlier"),
+            params.outlier_sigma
+        )
+    } else {
+        "outlier filter off".to_string()
+    };
+    let fragments = if params.min_fragment > 0 {
+        format!(
+            "{} dropped ({}; pieces under {} points)",
+            count(s.fragments, "fragment"),
+            count(s.fragment_points, "point"),
+            params.min_fragment
+        )
+    } else {
+        "fragment filter off".to_string()
+    };
+    let pieces = if params.min_fragment > 0 {
+        format!(" in {}", count(s.pieces, "piece"))
+    } else {
+        String::new()
+    };
+    format!(
+        "{outliers}, {fragments}; {} of {} points kept{pieces}",
+        s.kept, s.points
+    )
+}
+
+/// `"1 point"`, `"3 points"`.
+fn count(n: u32, what: &str) -> String {
+    if n == 1 {
+        format!("1 {what}")
+    } else {
+        format!("{n} {what}s")
+    }
+}
+
+/// The report's cleaning fields (zeros when cleaning is off).
+pub fn clean_json(
+    o: &mut crate::json::Obj,
+    stats: Option<&CleanStats>,
+    read: usize,
+    params: &Params,
+) {
+    let s = stats.copied().unwrap_or_default();
+    o.num("points_read", read as f64)
+        .num("outlier_sigma", params.outlier_sigma as f64)
+        .num("min_fragment", params.min_fragment as f64)
+        .num("outliers_removed", s.outliers as f64)
+        .num("fragments_dropped", s.fragments as f64)
+        .num("fragment_points", s.fragment_points as f64);
 }
 
 /// A bright, deterministic colour for cluster `label`.

@@ -1,7 +1,7 @@
 //! `vsaqem reconstruct`: point cloud to mesh (PLY, OBJ or OFF by extension).
 
-use crate::cmd::cluster::{read_input, ClusterArgs, InputArgs};
-use crate::cmd::{arena_buffer, MemoryArgs};
+use crate::cmd::cluster::{read_input, CleanArgs, ClusterArgs, InputArgs};
+use crate::cmd::{arena_buffer, clean_input, clean_json, clean_text, with_clean, MemoryArgs};
 use crate::input::Prepared;
 use crate::io::{write_atomic, write_mesh, MeshFormat};
 use crate::json;
@@ -9,7 +9,7 @@ use crate::progress::StageClock;
 use clap::Args;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
-use vsaqem_core::{Error, Params, Reconstruction};
+use vsaqem_core::{CleanStats, Error, Params, Reconstruction};
 
 /// Meshing parameters; defaults are `vsaqem_core::Params::default()`.
 #[derive(Args, Debug, Clone)]
@@ -57,6 +57,8 @@ pub struct Cmd {
     #[command(flatten)]
     pub input: InputArgs,
     #[command(flatten)]
+    pub clean: CleanArgs,
+    #[command(flatten)]
     pub cluster: ClusterArgs,
     #[command(flatten)]
     pub mesh: MeshArgs,
@@ -87,7 +89,7 @@ impl Cmd {
             border_angle: self.mesh.border_angle,
             refine_rounds: self.mesh.refine_rounds,
             mesh_bytes_per_cluster: self.mesh.mesh_bytes_per_cluster,
-            ..self.cluster.params()
+            ..self.clean.apply(self.cluster.params())
         }
     }
 }
@@ -99,11 +101,12 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
     let mut clock = StageClock::new(!cmd.quiet);
     let input = read_input(&cmd.input, &mut clock)?;
     let params = cmd.params();
-    let n = input.points.len();
-    let bytes = cmd
-        .memory
-        .arena_size(vsaqem_core::arena_bytes(n, &params), n)?;
+    let read = input.points.len();
+    let needed = with_clean(vsaqem_core::arena_bytes(read, &params), read, &params);
+    let bytes = cmd.memory.arena_size(needed, read)?;
     let mut buf = arena_buffer(bytes);
+    let (input, clean) =
+        clean_input(input, &params, &mut buf, &mut clock).inspect_err(|_| clock.finish())?;
     let arena = vsaqem_core::Arena::new(&mut buf);
     let out = vsaqem_core::reconstruct(
         &arena,
@@ -126,6 +129,8 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
     clock.record("write", t.elapsed());
     let report = Report {
         input: &input,
+        read,
+        clean: clean.as_ref(),
         out: &out,
         params: &params,
         clock: &clock,
@@ -155,6 +160,9 @@ fn write_output(
 
 struct Report<'r> {
     input: &'r Prepared,
+    /// Points read, before cleaning.
+    read: usize,
+    clean: Option<&'r CleanStats>,
     out: &'r Reconstruction<'r>,
     params: &'r Params,
     clock: &'r StageClock,
@@ -199,7 +207,8 @@ impl Report<'_> {
             )
         };
         format!(
-            "input      {}: {n} points, {normals}, bounding-box diagonal {diag:.6}\n\
+            "input      {}: {} points, {normals}, bounding-box diagonal {diag:.6}\n\
+             clean      {}\n\
              clusters   {} ({} initial, +{} by splitting, +{} by refinement in {} rounds), max error {:.3}% of the diagonal\n\
              candidates {} edges, {} facets ({} degenerate, {} fold groups, {} generators merged), {:.1} supports per facet\n\
              selection  {solver}, {} independent parts (largest {} facets), {} facets fixed by propagation\n\
@@ -210,6 +219,8 @@ impl Report<'_> {
              memory     arena peak {} bytes ({:.1} bytes/point), {} reserved\n\
              output     {}\n",
             self.input.name,
+            self.read,
+            clean_text(self.clean, self.params),
             cl.clusters,
             cl.initial_clusters,
             cl.splits,
@@ -256,8 +267,9 @@ impl Report<'_> {
             .num(
                 "diagonal",
                 self.out.clustered.bounds.diag as f64 * self.input.frame.scale,
-            )
-            .num("clusters", cl.clusters as f64)
+            );
+        clean_json(&mut o, self.clean, self.read, self.params);
+        o.num("clusters", cl.clusters as f64)
             .num("initial_clusters", cl.initial_clusters as f64)
             .num("splits", cl.splits as f64)
             .num("refine_rounds", m.refine_rounds as f64)
