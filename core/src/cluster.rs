@@ -354,7 +354,11 @@ pub fn try_cluster_state_in<'a>(
     };
     let mut m = wanted;
     let tol2 = {
-        let t = (params.tolerance * diag).max(NOISE_TOLERANCE * planes.noise);
+        let t = if params.tolerance > 0.0 {
+            (params.tolerance * diag).max(NOISE_TOLERANCE * planes.noise)
+        } else {
+            0.0
+        };
         stats.tolerance = relative(t * t, diag);
         stats.noise = relative(planes.noise * planes.noise, diag);
         t * t
