@@ -315,3 +315,244 @@ pub fn boundary_vertices(triangles: &[[u32; 3]]) -> Vec<u32> {
     out.dedup();
     out
 }
+
+/// A noisy variant of [`cloud`]: the same `n` clean points (returned first), then
+/// each moved by isotropic Gaussian noise of standard deviation `sigma` times the
+/// clean cloud's bounding-box diagonal (as the CLI's `--noise`), followed by
+/// `outliers` extra points uniform in the clean cloud's bounding box.
+pub fn noisy_cloud(
+    shape: Shape,
+    n: usize,
+    seed: u64,
+    sigma: f64,
+    outliers: usize,
+) -> (Vec<V3>, Vec<V3>) {
+    use vsaqem_core::math::Rng;
+    use vsaqem_core::sample::gaussian;
+    let clean = cloud(shape, n, seed);
+    let diag = diagonal(&clean);
+    let mut rng = Rng::new(seed ^ 0x05EE_D0F0_015E);
+    let mut noisy: Vec<V3> = clean
+        .iter()
+        .map(|p| p.map(|c| (c as f64 + sigma * diag * gaussian(&mut rng)) as f32))
+        .collect();
+    let mut lo = [f32::INFINITY; 3];
+    let mut hi = [f32::NEG_INFINITY; 3];
+    for p in &clean {
+        for a in 0..3 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+    }
+    for _ in 0..outliers {
+        noisy.push(core::array::from_fn(|a| {
+            lo[a] + (hi[a] - lo[a]) * rng.unit_f64() as f32
+        }));
+    }
+    (clean, noisy)
+}
+
+/// Exact distance from `p` to the clean surface of `shape` (the surface
+/// [`vsaqem_core::sample::fill`] samples). For the wave, the nearest point of
+/// the height field is found by a grid search refined twice (to about 1e-6 of
+/// the distance); every other shape is closed-form.
+pub fn distance_to_shape(shape: Shape, p: [f64; 3]) -> f64 {
+    let [x, y, z] = p;
+    let rho = (x * x + y * y).sqrt();
+    let r = (x * x + y * y + z * z).sqrt();
+    // Distance to a horizontal circle of radius `c` at height `h`.
+    let circle = |c: f64, h: f64| ((rho - c).powi(2) + (z - h).powi(2)).sqrt();
+    // Distance to an axis-aligned box surface of half-extents `h` at `centre`.
+    let box_dist = |h: [f64; 3], centre: [f64; 3]| {
+        let q: [f64; 3] = std::array::from_fn(|a| (p[a] - centre[a]).abs() - h[a]);
+        let out = q.iter().map(|v| v.max(0.0).powi(2)).sum::<f64>().sqrt();
+        if out > 0.0 {
+            out
+        } else {
+            -q.iter().copied().fold(f64::NEG_INFINITY, f64::max)
+        }
+    };
+    match shape {
+        Shape::Sphere => (r - 1.0).abs(),
+        Shape::Torus => (((rho - 0.7).powi(2) + z * z).sqrt() - 0.25).abs(),
+        Shape::Box => box_dist([0.9, 0.6, 0.4], [0.0; 3]),
+        Shape::Cylinder => {
+            // Closed cylinder radius 0.5, |z| <= 0.8: side and two discs.
+            let side = ((rho - 0.5).powi(2) + (z.abs() - 0.8).max(0.0).powi(2)).sqrt();
+            let cap = ((rho - 0.5).max(0.0).powi(2) + (z.abs() - 0.8).powi(2)).sqrt();
+            side.min(cap)
+        }
+        Shape::Demo => demo_distance(p),
+        Shape::Hemisphere => {
+            if z >= 0.0 {
+                (r - 1.0).abs()
+            } else {
+                circle(1.0, 0.0)
+            }
+        }
+        Shape::Tube => ((rho - 0.6).powi(2) + (z.abs() - 0.8).max(0.0).powi(2)).sqrt(),
+        Shape::HoledSphere => {
+            // The radial projection p/|p| lies on the kept part when its height is
+            // at most 0.7; otherwise the nearest point is on the rim.
+            if r > 0.0 && z / r <= 0.7 {
+                (r - 1.0).abs()
+            } else {
+                circle(0.51f64.sqrt(), 0.7)
+            }
+        }
+        Shape::Wave => wave_distance(p),
+        _ => unreachable!("no distance for {shape:?}"),
+    }
+}
+
+/// The demo (see `sample.rs`): the box `[-0.8,0.8]x[-0.5,0.5]x[-0.5,0.1]` whose
+/// top lacks the disc of radius 0.35 under the cylinder, the cylinder's side
+/// (z in [0.1, 0.6]) and its top disc. Minimum over the pieces.
+fn demo_distance(p: [f64; 3]) -> f64 {
+    let (lo, hi) = ([-0.8, -0.5, -0.5], [0.8, 0.5, 0.1]);
+    let (r, z0, z1) = (0.35, 0.1, 0.6);
+    let [x, y, z] = p;
+    let rho = (x * x + y * y).sqrt();
+    let mut best = f64::INFINITY;
+    // The six box faces, each a rectangle (the top one minus the disc).
+    for axis in 0..3 {
+        for side in [lo[axis], hi[axis]] {
+            let mut q: [f64; 3] = std::array::from_fn(|a| p[a].clamp(lo[a], hi[a]));
+            q[axis] = side;
+            if axis == 2 && side == hi[2] {
+                let qr = (q[0] * q[0] + q[1] * q[1]).sqrt();
+                if qr < r {
+                    // Inside the removed disc: the nearest kept point is on its rim.
+                    let (dx, dy) = if qr > 0.0 {
+                        (q[0] / qr, q[1] / qr)
+                    } else {
+                        (1.0, 0.0)
+                    };
+                    q[0] = r * dx;
+                    q[1] = r * dy;
+                }
+            }
+            let d = (0..3).map(|a| (p[a] - q[a]).powi(2)).sum::<f64>().sqrt();
+            best = best.min(d);
+        }
+    }
+    let side = ((rho - r).powi(2) + (z - z.clamp(z0, z1)).powi(2)).sqrt();
+    let top = ((rho - r).max(0.0).powi(2) + (z - z1).powi(2)).sqrt();
+    best.min(side).min(top)
+}
+
+/// Distance to the wave height field over `[-1, 1]^2`: the nearest point lies
+/// within `|z - w(x, y)|` horizontally of `(x, y)`, so a grid over that window,
+/// refined twice around its best cell, finds it.
+fn wave_distance(p: [f64; 3]) -> f64 {
+    use vsaqem_core::sample::wave;
+    let d2 = |u: f64, v: f64| {
+        let w = wave(u, v).0;
+        (p[0] - u).powi(2) + (p[1] - v).powi(2) + (p[2] - w).powi(2)
+    };
+    let (mut cu, mut cv) = (p[0].clamp(-1.0, 1.0), p[1].clamp(-1.0, 1.0));
+    let mut best = d2(cu, cv);
+    let mut half = best.sqrt() + 1e-6;
+    for _ in 0..3 {
+        let step = half / 10.0;
+        let (u0, v0) = (cu, cv);
+        for i in -10..=10 {
+            for j in -10..=10 {
+                let u = (u0 + i as f64 * step).clamp(-1.0, 1.0);
+                let v = (v0 + j as f64 * step).clamp(-1.0, 1.0);
+                let d = d2(u, v);
+                if d < best {
+                    (best, cu, cv) = (d, u, v);
+                }
+            }
+        }
+        half = step;
+    }
+    best.sqrt()
+}
+
+/// The smallest interior angle of a triangle, in degrees (0 when degenerate).
+pub fn min_angle_deg(t: [V3; 3]) -> f64 {
+    let p = t.map(|q| q.map(|c| c as f64));
+    let mut best = 180.0f64;
+    for i in 0..3 {
+        let u: [f64; 3] = std::array::from_fn(|a| p[(i + 1) % 3][a] - p[i][a]);
+        let v: [f64; 3] = std::array::from_fn(|a| p[(i + 2) % 3][a] - p[i][a]);
+        let c = [
+            u[1] * v[2] - u[2] * v[1],
+            u[2] * v[0] - u[0] * v[2],
+            u[0] * v[1] - u[1] * v[0],
+        ];
+        let s = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
+        let d = u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
+        best = best.min(s.atan2(d).to_degrees());
+    }
+    best
+}
+
+/// Long thin facets: minimum angle below 5° and longest edge over 3 times the
+/// median edge length of the mesh (the slivers a stray generator pulls out).
+pub fn long_thin_facets(v: &[V3], triangles: &[[u32; 3]]) -> usize {
+    let len = |a: u32, b: u32| {
+        let (p, q) = (v[a as usize], v[b as usize]);
+        (0..3)
+            .map(|k| ((p[k] - q[k]) as f64).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    };
+    let mut edges: Vec<f64> = triangles
+        .iter()
+        .flat_map(|t| (0..3).map(move |k| (t[k], t[(k + 1) % 3])))
+        .filter(|(a, b)| a < b)
+        .map(|(a, b)| len(a, b))
+        .collect();
+    if edges.is_empty() {
+        return 0;
+    }
+    edges.sort_by(f64::total_cmp);
+    let median = edges[edges.len() / 2];
+    triangles
+        .iter()
+        .filter(|t| {
+            let longest = (0..3)
+                .map(|k| len(t[k], t[(k + 1) % 3]))
+                .fold(0.0, f64::max);
+            min_angle_deg(t.map(|i| v[i as usize])) < 5.0 && longest > 3.0 * median
+        })
+        .count()
+}
+
+/// Boundary loops of a mesh: connected components of its boundary edges.
+pub fn boundary_loops(triangles: &[[u32; 3]]) -> usize {
+    let mut count: HashMap<(u32, u32), u32> = HashMap::new();
+    for t in triangles {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            *count.entry((a.min(b), a.max(b))).or_default() += 1;
+        }
+    }
+    let mut parent: HashMap<u32, u32> = HashMap::new();
+    fn find(p: &mut HashMap<u32, u32>, i: u32) -> u32 {
+        let mut r = i;
+        while let Some(&q) = p.get(&r) {
+            if q == r {
+                break;
+            }
+            r = q;
+        }
+        p.insert(i, r);
+        r
+    }
+    for (&(a, b), &c) in &count {
+        if c == 1 {
+            parent.entry(a).or_insert(a);
+            parent.entry(b).or_insert(b);
+            let (ra, rb) = (find(&mut parent, a), find(&mut parent, b));
+            parent.insert(ra, rb);
+        }
+    }
+    let keys: Vec<u32> = parent.keys().copied().collect();
+    keys.into_iter()
+        .filter(|&k| find(&mut parent, k) == k)
+        .count()
+}

@@ -29,6 +29,9 @@ pub struct Params {
     /// distance relative to the bounding-box diagonal (see `split`): the generator
     /// must lie within this RMS distance of the tangent planes of every point of the
     /// cluster's neighbourhoods. 0 disables splitting. Default 0.005 (0.5 %).
+    /// The tolerance used is never below [`crate::cluster::NOISE_TOLERANCE`]
+    /// times the noise floor of the planes ([`crate::Planes::noise`]): no
+    /// clustering gets below it, so a lower tolerance would only split noise.
     pub tolerance: f32,
     /// Weight of the squared Euclidean distance against the squared plane distance
     /// in the partition cost (seed Eq. 4), dimensionless: `E(p, c) = Q_v(p)(c) +

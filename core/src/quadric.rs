@@ -29,6 +29,14 @@ pub struct Planes<'a> {
     /// (`trace` of its 3x3 block): the unit that turns squared distances into
     /// QEM values. Zero only when every neighbourhood is degenerate.
     pub mean_weight: f32,
+    /// Noise floor of the planes, in absolute units: the median over points of
+    /// the RMS distance from the tangent planes of a point's neighbourhood to
+    /// their best common point (`√(min Q_v(i) / W_i)`, see [`noise_floor`]). No
+    /// generator can do better than this on average, whatever the clustering.
+    /// About 1e-4 of the diagonal on clean smooth samples (0 on planes and at
+    /// sharp edges, which planes locate exactly), 0.4-0.7 σ under Gaussian noise
+    /// of standard deviation σ.
+    pub noise: f32,
 }
 
 /// `u · [c, 1]`.
@@ -121,15 +129,71 @@ pub fn try_planes_in<'a>(
     let view = Planes {
         planes,
         mean_weight: 0.0,
+        noise: 0.0,
     };
     for i in 0..n {
         total += view.diffused_weight(nb, i) as f64;
     }
+    let noise = noise_floor(&view, nb, n);
     tick(progress, Stage::Quadrics, n as u64, n as u64)?;
     Ok(Planes {
         planes,
         mean_weight: (total / n.max(1) as f64) as f32,
+        noise,
     })
+}
+
+/// Octaves below and above the spacing that [`noise_floor`]'s histogram spans.
+const FLOOR_OCTAVES: (i32, i32) = (-16, 4);
+/// Bins per octave of that histogram (median to within 2^(1/16), 4.4 %).
+const FLOOR_BINS_PER_OCTAVE: i32 = 8;
+const FLOOR_BINS: usize = ((FLOOR_OCTAVES.1 - FLOOR_OCTAVES.0) * FLOOR_BINS_PER_OCTAVE) as usize;
+
+/// The median over the first `n` points of `√(min_x Q_v(i)(x) / W_i)`: how far,
+/// RMS, the tangent planes of a point's neighbourhood stay from any single
+/// point. It is the least error [`crate::split`] can reach, so a tolerance below
+/// it splits noise, not shape. The median of a log-scale histogram around the
+/// spacing (160 bins on the stack, no arena memory), to within 4.4 %.
+/// O(n k) time. 0 when no neighbourhood has weight.
+pub fn noise_floor(planes: &Planes, nb: &Neighbours, n: usize) -> f32 {
+    let unit = nb.spacing as f64;
+    if !(unit > 0.0 && unit.is_finite()) {
+        return 0.0;
+    }
+    let mut hist = [0u32; FLOOR_BINS];
+    let mut count = 0u32;
+    for i in 0..n {
+        let mut q = Quadric::default();
+        planes.accumulate_diffused(nb, i, &mut q);
+        let w = q.a[0] + q.a[3] + q.a[5];
+        if !(w > 0.0 && w.is_finite()) {
+            continue;
+        }
+        // The minimiser is independent of where the solve is centred (up to
+        // rounding); the origin keeps this a function of the planes alone.
+        let (x, _) = q.minimizer(0.0, [0.0; 3]);
+        let v = libm::sqrt(q.eval(x).max(0.0) / w) / unit;
+        let bin = if v > 0.0 && v.is_finite() {
+            let b = (libm::log2(v) - FLOOR_OCTAVES.0 as f64) * FLOOR_BINS_PER_OCTAVE as f64;
+            b.clamp(0.0, (FLOOR_BINS - 1) as f64) as usize
+        } else {
+            0
+        };
+        hist[bin] += 1;
+        count += 1;
+    }
+    let mut seen = 0u32;
+    for (b, &h) in hist.iter().enumerate() {
+        seen += h;
+        if 2 * seen > count {
+            if b == 0 {
+                return 0.0;
+            }
+            let octave = FLOOR_OCTAVES.0 as f64 + (b as f64 + 0.5) / FLOOR_BINS_PER_OCTAVE as f64;
+            return (unit * libm::exp2(octave)) as f32;
+        }
+    }
+    0.0
 }
 
 /// Surface variation at which a plane's weight halves.

@@ -107,7 +107,8 @@ pub struct ClusterArgs {
     #[arg(long, default_value_t = Params::default().split_rounds)]
     pub split_rounds: u32,
     /// Largest allowed error of a point against its cluster's generator, as a
-    /// fraction of the bounding-box diagonal (0 disables splitting).
+    /// fraction of the bounding-box diagonal (0 disables splitting); never below
+    /// 4 times the noise floor of the data.
     #[arg(long, default_value_t = Params::default().tolerance)]
     pub tolerance: f32,
     /// Weight of the Euclidean term in the partition cost (dimensionless).
@@ -275,7 +276,7 @@ impl Report<'_> {
             c.passes,
             if c.converged { ", converged" } else { "" },
             c.max_error * 100.0,
-            self.params.tolerance * 100.0,
+            c.tolerance * 100.0,
             self.clock.summary(),
             s.peak_clustering,
             s.peak_clustering as f64 / n as f64,
@@ -312,6 +313,8 @@ impl Report<'_> {
             .bool("converged", c.converged)
             .num("max_error_relative", c.max_error as f64)
             .num("tolerance_relative", self.params.tolerance as f64)
+            .num("tolerance_used_relative", c.tolerance as f64)
+            .num("noise_floor_relative", c.noise as f64)
             .raw("time_ms", &self.clock.json())
             .num("arena_peak_bytes", s.peak_clustering as f64)
             .num("arena_reserved_bytes", self.arena_bytes as f64)

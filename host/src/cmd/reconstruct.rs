@@ -277,6 +277,8 @@ impl Report<'_> {
             .num("passes", cl.passes as f64)
             .num("max_error_relative", cl.max_error as f64)
             .num("tolerance_relative", self.params.tolerance as f64)
+            .num("tolerance_used_relative", cl.tolerance as f64)
+            .num("noise_floor_relative", cl.noise as f64)
             .num("candidate_edges", m.candidate_edges as f64)
             .num("candidate_facets", m.candidate_facets as f64)
             .num("degenerate_facets", m.degenerate_facets as f64)
