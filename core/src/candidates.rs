@@ -142,6 +142,10 @@ pub fn try_merge_in<'a, 'b, A: Alloc<'b>>(
     Ok((rep, merged))
 }
 
+/// Neighbour links (a point of one cluster, a point of the other, neighbours)
+/// two clusters need to be candidate-adjacent.
+pub const MIN_LINKS: u32 = 2;
+
 /// Build the candidates from the cluster representatives `rep` (see
 /// [`try_merge_in`]) and `members` grouped by them; `generators[j]` is cluster
 /// `j`'s vertex and `diag` the bounding-box diagonal.
@@ -160,26 +164,58 @@ pub fn try_candidates_in<'a, 'b, A: Alloc<'b>>(
     let tol = COINCIDENT * diag;
     // 1. The seed's rule: a ~ b when a point of a and a point of b are neighbours.
     //    Upper adjacency (b > a) of every representative, sorted.
+    //    Under noise, or with few points per cluster, clusters interleave at
+    //    their borders and single stray links join clusters two apart. A pair
+    //    joined by one link only is kept when it is a Gabriel pair among the
+    //    clusters around `a`: no generator of a more strongly linked cluster lies
+    //    inside the sphere on the segment between the two generators.
     let up_start = arena.try_alloc_slice::<u32>(m + 1, 0)?;
-    let stamp_pass = |a: usize, stamp: &mut [u32], f: &mut dyn FnMut(u32)| {
+    let links_pass = |a: usize, links: &mut [u32], touched: &mut [u32], f: &mut dyn FnMut(u32)| {
+        let mut t = 0;
         for &p in members.of(a) {
             for q in nb.symmetric(p as usize) {
                 let Some(&b) = rep.get(labels[q as usize] as usize) else {
                     continue;
                 };
-                if (b as usize) > a && stamp[b as usize] != a as u32 {
-                    stamp[b as usize] = a as u32;
-                    f(b);
+                if b as usize != a {
+                    if links[b as usize] == 0 && t < touched.len() {
+                        touched[t] = b;
+                        t += 1;
+                    }
+                    links[b as usize] = links[b as usize].saturating_add(1);
                 }
             }
         }
+        let ga = generators[a];
+        for &b in &touched[..t] {
+            if (b as usize) <= a {
+                continue;
+            }
+            let keep = links[b as usize] >= MIN_LINKS || {
+                let gb = generators[b as usize];
+                let mid = [0, 1, 2].map(|i| 0.5 * (ga[i] + gb[i]));
+                let r2 = 0.25 * dist2(ga, gb);
+                !touched[..t].iter().any(|&c| {
+                    c != b
+                        && links[c as usize] >= MIN_LINKS
+                        && dist2(generators[c as usize], mid) < r2
+                })
+            };
+            if keep {
+                f(b);
+            }
+        }
+        for &b in &touched[..t] {
+            links[b as usize] = 0;
+        }
     };
     arena.scratch(|s| -> Result<()> {
-        let stamp = s.try_alloc_slice::<u32>(m, u32::MAX)?;
+        let links = s.try_alloc_slice::<u32>(m, 0)?;
+        let touched = s.try_alloc_slice::<u32>(m, 0)?;
         for a in 0..m {
             if rep[a] as usize == a {
                 let mut count = 0u32;
-                stamp_pass(a, stamp, &mut |_| count += 1);
+                links_pass(a, links, touched, &mut |_| count += 1);
                 up_start[a + 1] = count;
             }
         }
@@ -190,12 +226,13 @@ pub fn try_candidates_in<'a, 'b, A: Alloc<'b>>(
     }
     let up = arena.try_alloc_slice::<u32>(up_start[m] as usize, 0)?;
     arena.scratch(|s| -> Result<()> {
-        let stamp = s.try_alloc_slice::<u32>(m, u32::MAX)?;
+        let links = s.try_alloc_slice::<u32>(m, 0)?;
+        let touched = s.try_alloc_slice::<u32>(m, 0)?;
         for a in 0..m {
             if rep[a] as usize == a {
                 let lo = up_start[a] as usize;
                 let mut w = lo;
-                stamp_pass(a, stamp, &mut |b| {
+                links_pass(a, links, touched, &mut |b| {
                     up[w] = b;
                     w += 1;
                 });

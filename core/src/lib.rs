@@ -490,6 +490,24 @@ fn problem_in<'s, 'b, A: Alloc<'b>>(
                 *p = params.border_penalty;
             }
         }
+        // A facet whose three edges have no other candidate stands alone (a
+        // stray triple of clusters): it keeps the penalty, else it would be
+        // selected for free as a lone triangle.
+        for fe in cand.facet_edges {
+            let alone = |e: &u32| count.get(*e as usize).is_some_and(|&c| c < 2);
+            if fe.iter().all(alone) {
+                for &e in fe {
+                    let (Some(p), Some(&[a, b])) =
+                        (penalties.get_mut(e as usize), cand.edges.get(e as usize))
+                    else {
+                        continue;
+                    };
+                    if !(on_border(a) && on_border(b)) {
+                        *p = params.border_penalty;
+                    }
+                }
+            }
+        }
         Ok(())
     })?;
     let rows = s.try_alloc_slice::<[u32; 6]>(nf, [u32::MAX; 6])?;

@@ -83,7 +83,7 @@ pub struct Params {
     /// because core holds meshing to it: a round may use this, plus whatever
     /// the earlier stages left of their worst cases, and a denser graph fails
     /// with [`Error::MeshCapacity`], whatever the buffer's size. 0 (the default)
-    /// means `470 √k` bytes (1628 at k = 12; the candidate graph grows about
+    /// means `400 √k` bytes (1385 at k = 12; the candidate graph grows about
     /// like the neighbourhood's radius). Chosen from measurements: enough for
     /// every test cloud with 12 or more points per cluster of the cap, while
     /// [`crate::arena_bytes`] stays within twice the measured peak.
@@ -145,7 +145,7 @@ impl Params {
     pub fn mesh_capacity_per_cluster(&self) -> usize {
         if self.mesh_bytes_per_cluster == 0 {
             let k = self.k.clamp(1, MAX_K) as f32;
-            (470.0 * libm::sqrtf(k)) as usize
+            (400.0 * libm::sqrtf(k)) as usize
         } else {
             self.mesh_bytes_per_cluster as usize
         }

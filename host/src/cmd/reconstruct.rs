@@ -45,7 +45,7 @@ pub struct MeshArgs {
     #[arg(long, default_value_t = Params::default().refine_rounds)]
     pub refine_rounds: u32,
     /// Working memory of a meshing round, in bytes per cluster of the cap
-    /// (0: 470 times the square root of --knn, 1628 at k = 12). A candidate graph
+    /// (0: 400 times the square root of --knn, 1385 at k = 12). A candidate graph
     /// denser than that fails; raise it for clouds with few points per cluster.
     #[arg(long, default_value_t = Params::default().mesh_bytes_per_cluster)]
     pub mesh_bytes_per_cluster: u32,
