@@ -18,8 +18,8 @@
 //!   orientation.
 //! - **Twists**: edge constraints cannot see a fold-over between facets that share
 //!   no edge, so a selection can be non-orientable. The faces around an edge where
-//!   the orientation clashes are cut out (every face touching its vertices) and
-//!   the hole closed again, at most three times.
+//!   the orientation clashes are cut out (the two faces on each clashing edge)
+//!   and the hole closed again, at most three times.
 //! - No degenerate faces (dropped with the candidates), no duplicates (candidate
 //!   facets are distinct vertex triples; a filled triangle equal to an existing
 //!   face is refused), every vertex used.
@@ -615,8 +615,8 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
                 break (components, non_orientable);
             }
             // Close the holes; a clash (the selection folded over somewhere, which
-            // edge constraints cannot see) is cut out with the faces around it and
-            // closed again, a few times at most.
+            // edge constraints cannot see) is cut out and closed again, a few
+            // times at most.
             let more = fill_holes(s, faces, nf, generators, open, along, max_hole, tol)?;
             filled.faces += more.faces;
             filled.holes += more.holes;
@@ -631,24 +631,17 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
                 break (components, non_orientable);
             }
             repaired += 1;
-            nf = s.scratch(|t| -> Result<usize> {
-                let cut = t.try_alloc_slice::<bool>(m, false)?;
-                for f in 0..nf {
-                    if clash[f] {
-                        for &v in &faces[f] {
-                            cut[v as usize] = true;
-                        }
-                    }
+            // Only the faces on both sides of a clashing edge go: cutting their
+            // whole neighbourhood opened holes too large to close (block, 250
+            // clusters: 27 % of the points left uncovered).
+            let mut w = 0;
+            for f in 0..nf {
+                if !clash[f] {
+                    faces[w] = faces[f];
+                    w += 1;
                 }
-                let mut w = 0;
-                for f in 0..nf {
-                    if !faces[f].iter().any(|&v| cut[v as usize]) {
-                        faces[w] = faces[f];
-                        w += 1;
-                    }
-                }
-                Ok(w)
-            })?;
+            }
+            nf = w;
         };
         let faces = &mut faces[..nf];
         // Vertex-manifold: union the corners at one generator across shared edges.
