@@ -206,7 +206,7 @@ fn orient<'b, S: Alloc<'b>>(
 /// Loops shorter than this are filled even along the border of the data: a real
 /// border is long, while a spurious one (a few clusters that look like border on a
 /// noisy or sharp closed surface) rings a small hole.
-const MIN_OPEN_LOOP: usize = 8;
+const MIN_OPEN_LOOP: usize = 12;
 
 #[derive(Clone, Copy, Default)]
 struct Filled {
@@ -643,6 +643,27 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             }
             nf = w;
         };
+        // A face none of whose edges has a second face (a stray triangle, or one
+        // left when the faces around it were cut out) is a hole no ear can close
+        // (its filling would repeat it): it goes.
+        let nf = s.scratch(|t| -> Result<usize> {
+            let table = edge_table(t, &faces[..nf])?;
+            let lone = |f: &[u32; 3]| {
+                (0..3).all(|k| faces_of(table, key(f[k], f[(k + 1) % 3])).len() < 2)
+            };
+            let stray = t.try_alloc_slice::<bool>(nf, false)?;
+            for (f, x) in faces[..nf].iter().zip(stray.iter_mut()) {
+                *x = lone(f);
+            }
+            let mut w = 0;
+            for f in 0..nf {
+                if !stray[f] {
+                    faces[w] = faces[f];
+                    w += 1;
+                }
+            }
+            Ok(w)
+        })?;
         let faces = &mut faces[..nf];
         // Vertex-manifold: union the corners at one generator across shared edges.
         let table = edge_table(s, faces)?;
