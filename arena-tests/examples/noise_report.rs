@@ -14,7 +14,7 @@
 use arena_tests::{boundary_loops, distance_to_shape, long_thin_facets, noisy_cloud, topology};
 use std::mem::MaybeUninit;
 use vsaqem_core::sample::Shape;
-use vsaqem_core::{arena_bytes, reconstruct, Arena, Params, Silent};
+use vsaqem_core::{arena_bytes, clean_bytes, reconstruct, Arena, Params, Silent};
 
 const POINTS: usize = 20_000;
 const SEED: u64 = 3;
@@ -32,31 +32,98 @@ fn main() {
         ("wave", Shape::Wave),
         ("holed-sphere", Shape::HoledSphere),
     ];
-    println!("| shape | noise σ % | outliers | vertices | faces | closed / boundary loops | max % | mean % | clean points > 1 % | spikes | long thin facets |");
-    println!("|---|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|");
+    println!("| shape | noise σ % | outliers | cleaning | removed | vertices | faces | closed / boundary loops | max % | mean % | clean points > 1 % | spikes | long thin facets |");
+    println!("|---|---:|---:|---|---:|---:|---:|---|---:|---:|---:|---:|---:|");
     for (name, shape) in shapes {
         if !names.is_empty() && !names.iter().any(|n| n == name) {
             continue;
         }
         for outliers in [0, POINTS / 100] {
             for sigma in [0.0, 0.0025, 0.005, 0.01] {
-                row(name, shape, sigma, outliers);
+                // The CLI's defaults (fragments under 64 points dropped); with
+                // outliers also the statistical filter at 2 σ; from 0.5 % noise
+                // also two rounds of smoothing.
+                let filter = if outliers == 0 { 0.0 } else { 2.0 };
+                let mut variants = vec![(0.0, 0)];
+                if outliers > 0 {
+                    variants.push((filter, 0));
+                }
+                if sigma >= 0.005 {
+                    variants.push((filter, 2));
+                }
+                for (outlier_sigma, smooth_rounds) in variants {
+                    row(name, shape, sigma, outliers, outlier_sigma, smooth_rounds);
+                }
             }
         }
     }
 }
 
-fn row(name: &str, shape: Shape, sigma: f64, outliers: usize) {
+fn row(
+    name: &str,
+    shape: Shape,
+    sigma: f64,
+    outliers: usize,
+    outlier_sigma: f32,
+    smooth_rounds: u32,
+) {
     let (clean, noisy) = noisy_cloud(shape, POINTS, SEED, sigma, outliers);
     let diag = arena_tests::diagonal(&clean);
-    let params = Params::default();
-    let mut buf = vec![MaybeUninit::uninit(); arena_bytes(noisy.len(), &params)];
+    let params = Params {
+        outlier_sigma,
+        smooth_rounds,
+        ..Params::default()
+    };
+    let mut flags = Vec::new();
+    if outlier_sigma > 0.0 {
+        flags.push(format!("`--outliers {outlier_sigma}`"));
+    }
+    if smooth_rounds > 0 {
+        flags.push(format!("`--smooth {smooth_rounds}`"));
+    }
+    let cleaning = if flags.is_empty() {
+        "default".to_string()
+    } else {
+        flags.join(" ")
+    };
+    // The host's order: clean, keep what stays, reconstruct.
+    let mut keep = vec![true; noisy.len()];
+    let pre = clean_bytes(noisy.len(), &params)
+        .max(vsaqem_core::smooth::smooth_bytes(noisy.len(), &params));
+    let mut buf = vec![MaybeUninit::uninit(); pre];
     let arena = Arena::new(&mut buf);
-    let r = match reconstruct(&arena, &noisy, None, &params, &mut Silent) {
+    match vsaqem_core::clean(&arena, &noisy, &params, &mut keep, &mut Silent) {
+        Ok(s) => s,
+        Err(e) => {
+            println!(
+                "| {name} | {:.2} | {outliers} | {cleaning} | failed: {e} |||||||||",
+                100.0 * sigma
+            );
+            return;
+        }
+    };
+    let mut kept: Vec<_> = noisy
+        .iter()
+        .zip(&keep)
+        .filter(|(_, &k)| k)
+        .map(|(p, _)| *p)
+        .collect();
+    let removed = noisy.len() - kept.len();
+    if let Err(e) = vsaqem_core::smooth::smooth(&arena, &mut kept, &params, &mut Silent) {
+        println!(
+            "| {name} | {:.2} | {outliers} | {cleaning} | {removed} | failed: {e} ||||||||",
+            100.0 * sigma
+        );
+        return;
+    }
+
+    let mut buf = vec![MaybeUninit::uninit(); arena_bytes(kept.len(), &params)];
+    let arena = Arena::new(&mut buf);
+    let r = match reconstruct(&arena, &kept, None, &params, &mut Silent) {
         Ok(r) => r,
         Err(e) => {
             println!(
-                "| {name} | {:.2} | {outliers} | failed: {e} |||||||",
+                "| {name} | {:.2} | {outliers} | {cleaning} | {removed} | failed: {e} ||||||||",
                 100.0 * sigma
             );
             return;
@@ -86,7 +153,7 @@ fn row(name: &str, shape: Shape, sigma: f64, outliers: usize) {
         format!("open, {} loops", boundary_loops(t))
     };
     println!(
-        "| {name} | {:.2} | {outliers} | {} | {} | {closed} | {:.2} | {:.3} | {} ({:.2} %) | {spikes} | {} |",
+        "| {name} | {:.2} | {outliers} | {cleaning} | {removed} | {} | {} | {closed} | {:.2} | {:.3} | {} ({:.2} %) | {spikes} | {} |",
         100.0 * sigma,
         topo.vertices,
         topo.faces,

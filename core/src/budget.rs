@@ -139,3 +139,16 @@ fn stages(n: usize, params: &Params) -> (usize, usize) {
     let clustering = kept.saturating_add(cl_scratch);
     (neighbours.max(quadrics).max(clustering), kept)
 }
+
+/// Arena bytes that are always enough for one round of
+/// [`smooth`](crate::smooth::smooth) on `n` points with `k` neighbours: the k-NN
+/// rows, then the larger of the grid's scratch (while they are found) and the
+/// copy of the points, plus 7 for a buffer that does not start on an 8-byte
+/// boundary.
+pub(crate) fn smooth_bound(n: usize, k: usize) -> usize {
+    let rows = padded_bytes::<u32>(n.saturating_mul(k));
+    let copy = padded_bytes::<crate::math::V3>(n);
+    buffer_for(round_up(
+        rows.saturating_add(knn::grid_scratch_bytes(n).max(copy)),
+    ))
+}

@@ -66,6 +66,7 @@ pub mod quadric;
 pub mod sample;
 pub mod score;
 pub mod select;
+pub mod smooth;
 pub mod split;
 pub mod validate;
 

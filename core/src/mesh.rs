@@ -648,9 +648,8 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
         // (its filling would repeat it): it goes.
         let nf = s.scratch(|t| -> Result<usize> {
             let table = edge_table(t, &faces[..nf])?;
-            let lone = |f: &[u32; 3]| {
-                (0..3).all(|k| faces_of(table, key(f[k], f[(k + 1) % 3])).len() < 2)
-            };
+            let lone =
+                |f: &[u32; 3]| (0..3).all(|k| faces_of(table, key(f[k], f[(k + 1) % 3])).len() < 2);
             let stray = t.try_alloc_slice::<bool>(nf, false)?;
             for (f, x) in faces[..nf].iter().zip(stray.iter_mut()) {
                 *x = lone(f);

@@ -100,6 +100,11 @@ pub struct Params {
     /// this are dropped; the largest piece is always kept. 0 turns the filter
     /// off. Default 64.
     pub min_fragment: u32,
+    /// Rounds of smoothing before reconstruction ([`crate::smooth::smooth`]):
+    /// each moves every point onto the least-squares plane of its 24 nearest
+    /// neighbours. For noise near the point spacing (about 1 % of the diagonal);
+    /// rounds sharp edges. Default 0 (off).
+    pub smooth_rounds: u32,
 }
 
 impl Default for Params {
@@ -126,6 +131,7 @@ impl Default for Params {
             mesh_bytes_per_cluster: 0,
             outlier_sigma: 0.0,
             min_fragment: 64,
+            smooth_rounds: 0,
         }
     }
 }

@@ -59,6 +59,18 @@ pub struct CleanArgs {
     #[arg(long, value_name = "N", allow_hyphen_values = true,
           default_value_t = Params::default().min_fragment, value_parser = parse_fragment)]
     pub min_fragment: u32,
+    /// Rounds of smoothing after cleaning: each moves every point onto the
+    /// least-squares plane of its 24 nearest neighbours. For noise near the point
+    /// spacing (about 1 % of the diagonal); rounds sharp edges (0: off).
+    #[arg(long = "smooth", value_name = "ROUNDS", allow_hyphen_values = true,
+          default_value_t = Params::default().smooth_rounds, value_parser = parse_rounds)]
+    pub smooth_rounds: u32,
+}
+
+fn parse_rounds(s: &str) -> Result<u32, String> {
+    s.trim()
+        .parse::<u32>()
+        .map_err(|_| format!("'{s}' is not a whole number of rounds >= 0 (0: off)"))
 }
 
 fn parse_sigma(s: &str) -> Result<f32, String> {
@@ -82,6 +94,7 @@ impl CleanArgs {
         Params {
             outlier_sigma: self.outlier_sigma,
             min_fragment: self.min_fragment,
+            smooth_rounds: self.smooth_rounds,
             ..params
         }
     }

@@ -99,6 +99,7 @@ pub fn arena_buffer(bytes: usize) -> Vec<MaybeUninit<u8>> {
 /// command itself: also enough for the cleaning pre-pass when it is on (it runs
 /// first, in the same buffer).
 pub fn with_clean(run: usize, n: usize, params: &Params) -> usize {
+    let run = run.max(vsaqem_core::smooth::smooth_bytes(n, params));
     if params.cleans() {
         run.max(vsaqem_core::clean_bytes(n, params))
     } else {
@@ -107,10 +108,27 @@ pub fn with_clean(run: usize, n: usize, params: &Params) -> usize {
 }
 
 /// The cleaning pre-pass (`vsaqem_core::clean`) in `buf`, then the kept points
-/// compacted and normalised again. `None` when both filters are off; the input
-/// is handed back untouched when nothing is removed, so the output is then the
-/// same as without cleaning.
+/// compacted and normalised again, then `--smooth` rounds of smoothing. `None`
+/// when both filters are off; the input is handed back untouched when nothing is
+/// removed and nothing smoothed, so the output is then the same as without
+/// cleaning.
 pub fn clean_input(
+    input: Prepared,
+    params: &Params,
+    buf: &mut [MaybeUninit<u8>],
+    clock: &mut StageClock,
+) -> Result<(Prepared, Option<CleanStats>), String> {
+    let (mut input, stats) = filter_input(input, params, buf, clock)?;
+    if params.smooth_rounds > 0 {
+        let arena = Arena::new(buf);
+        vsaqem_core::smooth::smooth(&arena, &mut input.points, params, clock)
+            .map_err(|e| format!("{}: smoothing: {e}", input.name))?;
+    }
+    Ok((input, stats))
+}
+
+/// The cleaning filters of [`clean_input`].
+fn filter_input(
     input: Prepared,
     params: &Params,
     buf: &mut [MaybeUninit<u8>],
