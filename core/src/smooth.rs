@@ -91,7 +91,8 @@ fn project(points: &[V3], i: usize, row: &[u32]) -> Option<V3> {
     }
     let (vals, vecs) = Sym3(s).eigen();
     // A plane needs two directions of spread.
-    if !(vals[1] > 1e-12 * vals[2].max(1e-300)) {
+    let spread = vals[1] > 1e-12 * vals[2].max(1e-300);
+    if !spread {
         return None;
     }
     let nrm = vecs[0];
