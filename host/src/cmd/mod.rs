@@ -107,20 +107,27 @@ pub fn with_clean(run: usize, n: usize, params: &Params) -> usize {
     }
 }
 
-/// The cleaning pre-pass (`vsaqem_core::clean`) in `buf`, then the kept points
-/// compacted and normalised again, then `--smooth` rounds of smoothing. `None`
-/// when both filters are off; the input is handed back untouched when nothing is
-/// removed and nothing smoothed, so the output is then the same as without
-/// cleaning.
+/// The cleaning pre-pass (`vsaqem_core::clean`), then the kept points compacted
+/// and normalised again, then `--smooth` rounds of smoothing. `None` when both
+/// filters are off; the input is handed back untouched when nothing is removed
+/// and nothing smoothed, so the output is then the same as without cleaning.
+///
+/// Each pre-pass gets a buffer of its own, at most `buf`'s size (the budget),
+/// freed when it ends: working in `buf` would leave its pages resident beside
+/// those the reconstruction then touches (1M points: 175 MB peak RSS instead of
+/// 139 MB), while `buf`'s own pages stay untouched until the run uses them.
 pub fn clean_input(
     input: Prepared,
     params: &Params,
     buf: &mut [MaybeUninit<u8>],
     clock: &mut StageClock,
 ) -> Result<(Prepared, Option<CleanStats>), String> {
-    let (mut input, stats) = filter_input(input, params, buf, clock)?;
+    let budget = buf.len();
+    let (mut input, stats) = filter_input(input, params, budget, clock)?;
     if params.smooth_rounds > 0 {
-        let arena = Arena::new(buf);
+        let need = vsaqem_core::smooth::smooth_bytes(input.points.len(), params);
+        let mut own = arena_buffer(need.min(budget));
+        let arena = Arena::new(&mut own);
         vsaqem_core::smooth::smooth(&arena, &mut input.points, params, clock)
             .map_err(|e| format!("{}: smoothing: {e}", input.name))?;
     }
@@ -131,13 +138,15 @@ pub fn clean_input(
 fn filter_input(
     input: Prepared,
     params: &Params,
-    buf: &mut [MaybeUninit<u8>],
+    budget: usize,
     clock: &mut StageClock,
 ) -> Result<(Prepared, Option<CleanStats>), String> {
     if !params.cleans() {
         return Ok((input, None));
     }
-    let arena = Arena::new(buf);
+    let need = vsaqem_core::clean_bytes(input.points.len(), params);
+    let mut own = arena_buffer(need.min(budget));
+    let arena = Arena::new(&mut own);
     let mut keep = vec![true; input.points.len()];
     let stats = match vsaqem_core::clean(&arena, &input.points, params, &mut keep, clock) {
         Ok(s) => s,
