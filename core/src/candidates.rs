@@ -273,9 +273,17 @@ pub fn try_candidates_in<'a, 'b, A: Alloc<'b>>(
     //    in a 4-cycle without a diagonal; both diagonals become candidates (the
     //    selection picks one, or neither), else the quad's edges would have a
     //    single candidate facet each and the surface a hole there.
+    //    A cluster joined to two clusters only (a strip at the ragged edge of a
+    //    scan) is in no 3-cycle and could never be covered: the edge between its
+    //    two neighbours closes its triangle.
     let for_each_diagonal = |f: &mut dyn FnMut(u32, u32)| {
         for a in 0..m as u32 {
             let ring = around(a);
+            if let [b, d] = *ring {
+                if !adjacent(b, d) {
+                    f(b, d);
+                }
+            }
             for (i, &b) in ring.iter().enumerate() {
                 for &d in &ring[i + 1..] {
                     if adjacent(b, d) {
