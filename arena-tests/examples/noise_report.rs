@@ -14,7 +14,7 @@
 use arena_tests::{boundary_loops, distance_to_shape, long_thin_facets, noisy_cloud, topology};
 use std::mem::MaybeUninit;
 use vsaqem_core::sample::Shape;
-use vsaqem_core::{arena_bytes, clean_bytes, reconstruct, Arena, Params, Silent};
+use vsaqem_core::{arena_bytes, reconstruct, Arena, Params, Silent};
 
 const POINTS: usize = 20_000;
 const SEED: u64 = 3;
@@ -86,14 +86,9 @@ fn row(
     } else {
         flags.join(" ")
     };
-    // The host's order: clean, keep what stays, reconstruct.
-    let mut keep = vec![true; noisy.len()];
-    let pre = clean_bytes(noisy.len(), &params)
-        .max(vsaqem_core::smooth::smooth_bytes(noisy.len(), &params));
-    let mut buf = vec![MaybeUninit::uninit(); pre];
-    let arena = Arena::new(&mut buf);
-    match vsaqem_core::clean(&arena, &noisy, &params, &mut keep, &mut Silent) {
-        Ok(s) => s,
+    // The host's order: clean, keep what stays, smooth, reconstruct.
+    let kept = match arena_tests::pre_passes(&noisy, &params) {
+        Ok(kept) => kept,
         Err(e) => {
             println!(
                 "| {name} | {:.2} | {outliers} | {cleaning} | failed: {e} |||||||||",
@@ -102,21 +97,7 @@ fn row(
             return;
         }
     };
-    let mut kept: Vec<_> = noisy
-        .iter()
-        .zip(&keep)
-        .filter(|(_, &k)| k)
-        .map(|(p, _)| *p)
-        .collect();
     let removed = noisy.len() - kept.len();
-    if let Err(e) = vsaqem_core::smooth::smooth(&arena, &mut kept, &params, &mut Silent) {
-        println!(
-            "| {name} | {:.2} | {outliers} | {cleaning} | {removed} | failed: {e} ||||||||",
-            100.0 * sigma
-        );
-        return;
-    }
-
     let mut buf = vec![MaybeUninit::uninit(); arena_bytes(kept.len(), &params)];
     let arena = Arena::new(&mut buf);
     let r = match reconstruct(&arena, &kept, None, &params, &mut Silent) {

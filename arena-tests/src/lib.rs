@@ -556,3 +556,25 @@ pub fn boundary_loops(triangles: &[[u32; 3]]) -> usize {
         .filter(|&k| find(&mut parent, k) == k)
         .count()
 }
+
+/// The CLI's pre-passes in its order: [`vsaqem_core::clean`] (the points it
+/// keeps), then [`vsaqem_core::smooth::smooth`], each in a buffer of its own
+/// bound. Returns the points to reconstruct.
+pub fn pre_passes(points: &[V3], params: &vsaqem_core::Params) -> vsaqem_core::Result<Vec<V3>> {
+    use std::mem::MaybeUninit;
+    let mut keep = vec![true; points.len()];
+    let mut buf = vec![MaybeUninit::uninit(); vsaqem_core::clean_bytes(points.len(), params)];
+    let arena = vsaqem_core::Arena::new(&mut buf);
+    vsaqem_core::clean(&arena, points, params, &mut keep, &mut vsaqem_core::Silent)?;
+    let mut kept: Vec<V3> = points
+        .iter()
+        .zip(&keep)
+        .filter(|(_, &k)| k)
+        .map(|(p, _)| *p)
+        .collect();
+    let need = vsaqem_core::smooth::smooth_bytes(kept.len(), params);
+    let mut buf = vec![MaybeUninit::uninit(); need];
+    let arena = vsaqem_core::Arena::new(&mut buf);
+    vsaqem_core::smooth::smooth(&arena, &mut kept, params, &mut vsaqem_core::Silent)?;
+    Ok(kept)
+}

@@ -78,13 +78,7 @@ fn closed_shapes_with_gaussian_noise_give_manifolds_without_spikes() {
             assert!(far <= bound, "{what}: a vertex {:.3} % off", 100.0 * far);
             // On average the mesh is closer to the clean surface than a noisy
             // point is (mean |noise| along the normal is 0.8 σ).
-            let tris: Vec<[[f64; 3]; 3]> = t
-                .iter()
-                .map(|f| f.map(|i| v[i as usize].map(|x| x as f64)))
-                .collect();
-            let s = vsaqem::eval::sample_surface(&tris, 20_000);
-            let mean =
-                s.iter().map(|&p| distance_to_shape(shape, p)).sum::<f64>() / s.len() as f64 / diag;
+            let mean = mean_to_shape(shape, v, t) / diag;
             eprintln!("{what}: mean distance {:.3} %", 100.0 * mean);
             assert!(mean < sigma, "{what}: mean {:.3} %", 100.0 * mean);
             if sigma <= 0.0025 {
@@ -121,26 +115,14 @@ fn every_shape_at_one_percent_noise_and_outliers_with_filter_and_smoothing() {
         let (clean, noisy) = noisy_cloud(shape, n, 3, sigma, n / 100);
         let diag = diagonal(&clean);
         let what = format!("{shape:?}");
-        let pre = vsaqem_core::clean_bytes(noisy.len(), &params)
-            .max(vsaqem_core::smooth::smooth_bytes(noisy.len(), &params));
-        let mut buf = vec![MaybeUninit::uninit(); pre];
-        let arena = Arena::new(&mut buf);
-        let mut keep = vec![true; noisy.len()];
-        let stats = vsaqem_core::clean(&arena, &noisy, &params, &mut keep, &mut Silent).unwrap();
-        let mut kept: Vec<_> = noisy
-            .iter()
-            .zip(&keep)
-            .filter(|(_, &k)| k)
-            .map(|(p, _)| *p)
-            .collect();
-        vsaqem_core::smooth::smooth(&arena, &mut kept, &params, &mut Silent).unwrap();
+        let kept = arena_tests::pre_passes(&noisy, &params).unwrap();
         let mut buf = vec![MaybeUninit::uninit(); arena_bytes(kept.len(), &params)];
         let arena = Arena::new(&mut buf);
         let r = reconstruct(&arena, &kept, None, &params, &mut Silent)
             .unwrap_or_else(|e| panic!("{what}: {e}"));
         let (v, t) = (r.mesh.vertices, r.mesh.triangles);
         let topo = topology(v, t);
-        eprintln!("{what}: {} removed; {topo:?}", stats.points - stats.kept);
+        eprintln!("{what}: {} removed; {topo:?}", noisy.len() - kept.len());
         assert!(topo.is_clean_manifold(), "{what}: {topo:?}");
         assert_eq!(
             arena_tests::boundary_loops(t),
@@ -158,14 +140,19 @@ fn every_shape_at_one_percent_noise_and_outliers_with_filter_and_smoothing() {
             100.0 * far
         );
         assert_eq!(long_thin_facets(v, t), 0, "{what}: long thin facets");
-        let tris: Vec<[[f64; 3]; 3]> = t
-            .iter()
-            .map(|f| f.map(|i| v[i as usize].map(|x| x as f64)))
-            .collect();
-        let s = vsaqem::eval::sample_surface(&tris, 20_000);
-        let mean =
-            s.iter().map(|&p| distance_to_shape(shape, p)).sum::<f64>() / s.len() as f64 / diag;
+        let mean = mean_to_shape(shape, v, t) / diag;
         eprintln!("{what}: mean distance {:.3} %", 100.0 * mean);
         assert!(mean < 0.5 * sigma, "{what}: mean {:.3} %", 100.0 * mean);
     }
+}
+
+/// Mean distance from 20,000 area-uniform samples of the mesh to the clean
+/// surface of `shape`.
+fn mean_to_shape(shape: Shape, v: &[vsaqem_core::V3], t: &[[u32; 3]]) -> f64 {
+    let tris: Vec<[[f64; 3]; 3]> = t
+        .iter()
+        .map(|f| f.map(|i| v[i as usize].map(|x| x as f64)))
+        .collect();
+    let s = vsaqem::eval::sample_surface(&tris, 20_000);
+    s.iter().map(|&p| distance_to_shape(shape, p)).sum::<f64>() / s.len() as f64
 }

@@ -34,32 +34,7 @@ pub fn pca(points: &[V3], nb: &Neighbours, i: usize) -> V3 {
 /// neighbourhood straddles a sharp feature or is pure noise.
 pub fn pca_with_variation(points: &[V3], nb: &Neighbours, i: usize) -> (V3, f32) {
     let row = nb.of(i);
-    let m = (row.len() + 1) as f64;
-    let mut c = to_d3(points[i]);
-    for &j in row {
-        let q = to_d3(points[j as usize]);
-        for a in 0..3 {
-            c[a] += q[a];
-        }
-    }
-    for v in c.iter_mut() {
-        *v /= m;
-    }
-    let mut s = [0.0f64; 6];
-    let mut add = |p: V3| {
-        let d = [p[0] as f64 - c[0], p[1] as f64 - c[1], p[2] as f64 - c[2]];
-        s[0] += d[0] * d[0];
-        s[1] += d[0] * d[1];
-        s[2] += d[0] * d[2];
-        s[3] += d[1] * d[1];
-        s[4] += d[1] * d[2];
-        s[5] += d[2] * d[2];
-    };
-    add(points[i]);
-    for &j in row {
-        add(points[j as usize]);
-    }
-    let (vals, vecs) = Sym3(s).eigen();
+    let (_, vals, vecs) = neighbourhood_pca(points, i, row);
     let v = vecs[0];
     let total = vals[0].max(0.0) + vals[1].max(0.0) + vals[2].max(0.0);
     let variation = if total > 0.0 {
@@ -68,6 +43,47 @@ pub fn pca_with_variation(points: &[V3], nb: &Neighbours, i: usize) -> (V3, f32)
         0.0
     };
     ([v[0] as f32, v[1] as f32, v[2] as f32], variation)
+}
+
+/// Centroid, eigenvalues (ascending) and eigenvectors of the covariance of point
+/// `i` and the points `row` indexes, in `f64`. Indices out of range are skipped.
+pub fn neighbourhood_pca(
+    points: &[V3],
+    i: usize,
+    row: &[u32],
+) -> ([f64; 3], [f64; 3], [[f64; 3]; 3]) {
+    let around = || {
+        points
+            .get(i)
+            .into_iter()
+            .chain(row.iter().filter_map(|&j| points.get(j as usize)))
+            .map(|&q| to_d3(q))
+    };
+    let mut c = [0.0f64; 3];
+    let mut m = 0.0f64;
+    for q in around() {
+        for a in 0..3 {
+            c[a] += q[a];
+        }
+        m += 1.0;
+    }
+    if m > 0.0 {
+        for v in c.iter_mut() {
+            *v /= m;
+        }
+    }
+    let mut s = [0.0f64; 6];
+    for q in around() {
+        let d = [q[0] - c[0], q[1] - c[1], q[2] - c[2]];
+        s[0] += d[0] * d[0];
+        s[1] += d[0] * d[1];
+        s[2] += d[0] * d[2];
+        s[3] += d[1] * d[1];
+        s[4] += d[1] * d[2];
+        s[5] += d[2] * d[2];
+    }
+    let (vals, vecs) = Sym3(s).eigen();
+    (c, vals, vecs)
 }
 
 /// The normal of point `i` and its surface variation: the given normal (variation

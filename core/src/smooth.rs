@@ -18,7 +18,8 @@
 use crate::arena::Alloc;
 use crate::error::Result;
 use crate::knn::try_knn_rows_in;
-use crate::math::{to_d3, Sym3, V3};
+use crate::math::{to_d3, V3};
+use crate::normals::neighbourhood_pca;
 use crate::params::{Params, MAX_K};
 use crate::progress::{tick, Progress, Stage};
 
@@ -64,32 +65,7 @@ pub fn smooth<'b, A: Alloc<'b>>(
 /// when the neighbourhood has no plane (all points on a line or equal).
 fn project(points: &[V3], i: usize, row: &[u32]) -> Option<V3> {
     let p = to_d3(*points.get(i)?);
-    let mut c = p;
-    let mut m = 1.0f64;
-    for &j in row {
-        let q = to_d3(*points.get(j as usize)?);
-        for a in 0..3 {
-            c[a] += q[a];
-        }
-        m += 1.0;
-    }
-    for v in c.iter_mut() {
-        *v /= m;
-    }
-    let mut s = [0.0f64; 6];
-    for q in core::iter::once(p).chain(
-        row.iter()
-            .filter_map(|&j| points.get(j as usize).map(|&q| to_d3(q))),
-    ) {
-        let d = [q[0] - c[0], q[1] - c[1], q[2] - c[2]];
-        s[0] += d[0] * d[0];
-        s[1] += d[0] * d[1];
-        s[2] += d[0] * d[2];
-        s[3] += d[1] * d[1];
-        s[4] += d[1] * d[2];
-        s[5] += d[2] * d[2];
-    }
-    let (vals, vecs) = Sym3(s).eigen();
+    let (c, vals, vecs) = neighbourhood_pca(points, i, row);
     // A plane needs two directions of spread.
     let spread = vals[1] > 1e-12 * vals[2].max(1e-300);
     if !spread {

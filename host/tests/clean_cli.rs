@@ -2,20 +2,14 @@
 //! clear errors for bad flag values and for cleaning that leaves too little,
 //! unchanged output when nothing is removed.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
+use common::bin;
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_vsaqem"))
-}
+use std::path::{Path, PathBuf};
+use std::process::Output;
 
 fn dir(name: &str) -> PathBuf {
-    let d = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join("clean")
-        .join(name);
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::dir("clean", name)
 }
 
 /// `vsaqem <command> -q --points 6000 --clusters 200 <args> -o OUT`.

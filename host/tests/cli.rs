@@ -1,19 +1,12 @@
 //! The `vsaqem` binary end to end: clear errors, no partial output, determinism.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+mod common;
+use common::bin;
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_vsaqem"))
-}
+use std::path::{Path, PathBuf};
 
 fn dir(name: &str) -> PathBuf {
-    let d = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join("cli")
-        .join(name);
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::dir("cli", name)
 }
 
 /// Run `vsaqem cluster IN -o OUT` and expect failure with every `needles` in stderr

@@ -1,5 +1,7 @@
 //! `vsaqem eval` and `vsaqem::eval::evaluate` on hand-computed cases.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use vsaqem::eval::{dist2_point_triangle, evaluate, Evaluation};
@@ -246,12 +248,7 @@ fn missing_geometry_gives_nan_not_a_panic() {
 // The command
 
 fn dir(name: &str) -> PathBuf {
-    let d = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join("eval")
-        .join(name);
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::dir("eval", name)
 }
 
 fn write_off(path: &Path, (v, t): &(Vec<[f64; 3]>, Vec<[u32; 3]>)) {

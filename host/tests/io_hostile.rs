@@ -6,6 +6,8 @@
 //! Fixtures are written by the tests into `CARGO_TARGET_TMPDIR`; no data file is
 //! committed. The real models in `../shared/data` are read when present.
 
+mod common;
+
 use std::fs;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -14,14 +16,8 @@ use vsaqem::io::{
     read_cloud, read_mesh, write_atomic, write_mesh, write_points_ply, Cloud, MeshFormat,
 };
 
-/// A fresh, empty directory for one test.
-fn dir(test: &str) -> PathBuf {
-    let d = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join("io_hostile")
-        .join(test);
-    let _ = fs::remove_dir_all(&d);
-    fs::create_dir_all(&d).unwrap();
-    d
+fn dir(name: &str) -> PathBuf {
+    common::dir("io_hostile", name)
 }
 
 fn put(dir: &Path, name: &str, bytes: impl AsRef<[u8]>) -> PathBuf {

@@ -1,32 +1,16 @@
 //! `--memory`: the arena budget of `reconstruct` and `cluster`, checked before any
 //! work against the bound core computes.
 
+mod common;
+use common::{bin, SMALL};
+
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 use vsaqem_core::{arena_bytes, cluster_bytes, Params};
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_vsaqem"))
-}
-
 fn dir(name: &str) -> PathBuf {
-    let d = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join("memory")
-        .join(name);
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::dir("memory", name)
 }
-
-/// The built-in sample of these runs: 4000 points, 120 clusters.
-const SMALL: [&str; 6] = [
-    "--sample",
-    "sphere",
-    "--points",
-    "4000",
-    "--clusters",
-    "120",
-];
 
 fn params() -> Params {
     Params {

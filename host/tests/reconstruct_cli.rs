@@ -1,29 +1,13 @@
 //! `vsaqem reconstruct` end to end: formats, reports, errors, determinism.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+mod common;
+use common::{bin, SMALL};
 
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_vsaqem"))
-}
+use std::path::PathBuf;
 
 fn dir(name: &str) -> PathBuf {
-    let d = Path::new(env!("CARGO_TARGET_TMPDIR"))
-        .join("reconstruct")
-        .join(name);
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
+    common::dir("reconstruct", name)
 }
-
-const SMALL: [&str; 6] = [
-    "--sample",
-    "sphere",
-    "--points",
-    "4000",
-    "--clusters",
-    "120",
-];
 
 #[test]
 fn an_unknown_output_format_fails_before_any_work() {

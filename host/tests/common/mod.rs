@@ -1,0 +1,30 @@
+//! Helpers shared by the host's integration tests.
+#![allow(dead_code)] // each test binary uses its own subset
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The `vsaqem` binary under test.
+pub fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_vsaqem"))
+}
+
+/// A fresh, empty directory `group/name` under the target's temporary folder.
+pub fn dir(group: &str, name: &str) -> PathBuf {
+    let d = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join(group)
+        .join(name);
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// A small built-in sample for quick runs: 4000 points on a sphere, 120 clusters.
+pub const SMALL: [&str; 6] = [
+    "--sample",
+    "sphere",
+    "--points",
+    "4000",
+    "--clusters",
+    "120",
+];
