@@ -3,7 +3,7 @@
 //! unchanged output when nothing is removed.
 
 mod common;
-use common::bin;
+use common::{bin, field};
 
 use std::path::{Path, PathBuf};
 use std::process::Output;
@@ -20,18 +20,6 @@ fn run(command: &str, args: &[&str], out: &Path) -> Output {
         .arg("-o")
         .arg(out)
         .output()
-        .unwrap()
-}
-
-/// A number field of a JSON report.
-fn field(report: &str, k: &str) -> f64 {
-    let at = report
-        .find(&format!("\"{k}\": "))
-        .unwrap_or_else(|| panic!("{k} missing from {report}"));
-    let rest = &report[at + k.len() + 4..];
-    rest[..rest.find([',', '\n']).unwrap()]
-        .trim()
-        .parse()
         .unwrap()
 }
 

@@ -2,7 +2,7 @@
 //! work against the bound core computes.
 
 mod common;
-use common::{bin, SMALL};
+use common::{bin, field, SMALL};
 
 use std::path::{Path, PathBuf};
 use std::process::Output;
@@ -37,18 +37,6 @@ fn run(command: &str, d: &Path, memory: &str) -> (Output, PathBuf, PathBuf) {
         .output()
         .unwrap();
     (r, out, json)
-}
-
-/// The value of a numeric field of a JSON report.
-fn field(report: &str, key: &str) -> f64 {
-    let at = report
-        .find(&format!("\"{key}\": "))
-        .unwrap_or_else(|| panic!("{key} missing from {report}"));
-    let rest = &report[at + key.len() + 4..];
-    rest[..rest.find([',', '\n']).unwrap()]
-        .trim()
-        .parse()
-        .unwrap()
 }
 
 #[test]

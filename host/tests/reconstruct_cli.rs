@@ -51,16 +51,7 @@ fn every_output_format_holds_the_reported_mesh() {
         assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
         let (v, t) = vsaqem::io::read_mesh(&out).unwrap();
         let report = std::fs::read_to_string(&json).unwrap();
-        let field = |k: &str| -> f64 {
-            let at = report
-                .find(&format!("\"{k}\": "))
-                .unwrap_or_else(|| panic!("{k} missing"));
-            let rest = &report[at + k.len() + 4..];
-            rest[..rest.find([',', '\n']).unwrap()]
-                .trim()
-                .parse()
-                .unwrap()
-        };
+        let field = |k: &str| common::field(&report, k);
         assert_eq!(field("faces") as usize, t.len(), "{ext}");
         assert_eq!(field("vertices") as usize, v.len(), "{ext}");
         for key in [

@@ -28,3 +28,15 @@ pub const SMALL: [&str; 6] = [
     "--clusters",
     "120",
 ];
+
+/// The value of a numeric field of a JSON report (`"key": value`).
+pub fn field(report: &str, key: &str) -> f64 {
+    let at = report
+        .find(&format!("\"{key}\": "))
+        .unwrap_or_else(|| panic!("{key} missing from {report}"));
+    let rest = &report[at + key.len() + 4..];
+    rest[..rest.find([',', '\n']).unwrap()]
+        .trim()
+        .parse()
+        .unwrap()
+}
