@@ -99,6 +99,7 @@ pub fn try_border_clusters_in<'a, 'b, A: Alloc<'b>>(
     members: &Members,
     planes: &Planes,
     cand: &Candidates,
+    per_edge: &[u8],
     generators: &[V3],
     angle: f32,
     moved: &mut [V3],
@@ -135,26 +136,15 @@ pub fn try_border_clusters_in<'a, 'b, A: Alloc<'b>>(
         // Clusters at an end of the candidate graph: one of their edges has fewer
         // than two candidate facets (nothing on one side of it).
         let frayed = s.try_alloc_slice::<bool>(m, false)?;
-        s.scratch(|t| -> Result<()> {
-            let count = t.try_alloc_slice::<u8>(cand.edges.len(), 0)?;
-            for fe in cand.facet_edges {
-                for &e in fe {
-                    if let Some(c) = count.get_mut(e as usize) {
-                        *c = c.saturating_add(1);
+        for (e, &c) in cand.edges.iter().zip(per_edge) {
+            if c < 2 {
+                for &j in e {
+                    if let Some(f) = frayed.get_mut(j as usize) {
+                        *f = true;
                     }
                 }
             }
-            for (e, &c) in cand.edges.iter().zip(count.iter()) {
-                if c < 2 {
-                    for &j in e {
-                        if let Some(f) = frayed.get_mut(j as usize) {
-                            *f = true;
-                        }
-                    }
-                }
-            }
-            Ok(())
-        })?;
+        }
         let angles = s.try_alloc_slice::<f32>(most as usize, 0.0)?;
         for j in 0..m {
             let pts = members.of(j);

@@ -142,6 +142,25 @@ pub fn try_merge_in<'a, 'b, A: Alloc<'b>>(
     Ok((rep, merged))
 }
 
+/// Candidate facets on each candidate edge (index as in `cand.edges`), counted
+/// up to 2: fewer than two means nothing lies on one side of the edge (the end
+/// of the data, a missing candidate). Used by border detection and the edge
+/// penalties of the selection.
+pub fn try_facets_per_edge_in<'a, 'b, A: Alloc<'b>>(
+    arena: &'a A,
+    cand: &Candidates,
+) -> Result<&'a [u8]> {
+    let count = arena.try_alloc_slice::<u8>(cand.edges.len(), 0)?;
+    for fe in cand.facet_edges {
+        for &e in fe {
+            if let Some(c) = count.get_mut(e as usize) {
+                *c = c.saturating_add(1).min(2);
+            }
+        }
+    }
+    Ok(count)
+}
+
 /// Neighbour links (a point of one cluster, a point of the other, neighbours)
 /// two clusters need to be candidate-adjacent.
 pub const MIN_LINKS: u32 = 2;

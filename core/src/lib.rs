@@ -445,10 +445,12 @@ fn problem_in<'s, 'b, A: Alloc<'b>>(
     let members = candidates::try_members_in(s, c.labels, rep)?;
     let cand = candidates::try_candidates_in(s, nb, c.labels, rep, merged, &members, gens, diag)?;
     // Clusters on the border of the data; their vertices move onto it.
+    let per_edge = candidates::try_facets_per_edge_in(s, &cand)?;
     let moved = s.try_alloc_copy(gens)?;
     let angle = params.border_angle * (core::f32::consts::PI / 180.0);
-    let open =
-        border::try_border_clusters_in(s, points, &members, planes, &cand, gens, angle, moved)?;
+    let open = border::try_border_clusters_in(
+        s, points, &members, planes, &cand, per_edge, gens, angle, moved,
+    )?;
     progress::tick(progress, Stage::Candidates, 1, 1)?;
     progress::tick(progress, Stage::Scoring, 0, 1)?;
     let sp = score::ScoreParams {
@@ -472,45 +474,38 @@ fn problem_in<'s, 'b, A: Alloc<'b>>(
     }
     let penalties = s.try_alloc_slice::<f32>(masks.len(), 0.0)?;
     let on_border = |j: u32| open.get(j as usize).copied().unwrap_or(false);
-    // Candidate facets per edge (saturating at 2): an edge with a single one can
-    // never carry two (nothing lies beyond it: the end of a scan, a small piece of
-    // surface), so a penalty there would only price its one facet, and the data
-    // under it, out of the mesh. Such edges are free, like those between two
-    // clusters on the border of the data.
-    s.scratch(|t| -> Result<()> {
-        let count = t.try_alloc_slice::<u8>(ne, 0)?;
-        for fe in cand.facet_edges {
+    // An edge with a single candidate facet can never carry two (nothing lies
+    // beyond it: the end of a scan, a small piece of surface), so a penalty there
+    // would only price its one facet, and the data under it, out of the mesh.
+    // Such edges are free, like those between two clusters on the border of the
+    // data.
+    for ((p, e), &c) in penalties[..ne]
+        .iter_mut()
+        .zip(cand.edges)
+        .zip(per_edge.iter())
+    {
+        if c >= 2 && !(on_border(e[0]) && on_border(e[1])) {
+            *p = params.border_penalty;
+        }
+    }
+    // A facet whose three edges have no other candidate stands alone (a
+    // stray triple of clusters): it keeps the penalty, else it would be
+    // selected for free as a lone triangle.
+    for fe in cand.facet_edges {
+        let alone = |e: &u32| per_edge.get(*e as usize).is_some_and(|&c| c < 2);
+        if fe.iter().all(alone) {
             for &e in fe {
-                if let Some(c) = count.get_mut(e as usize) {
-                    *c = c.saturating_add(1).min(2);
+                let (Some(p), Some(&[a, b])) =
+                    (penalties.get_mut(e as usize), cand.edges.get(e as usize))
+                else {
+                    continue;
+                };
+                if !(on_border(a) && on_border(b)) {
+                    *p = params.border_penalty;
                 }
             }
         }
-        for ((p, e), &c) in penalties[..ne].iter_mut().zip(cand.edges).zip(count.iter()) {
-            if c >= 2 && !(on_border(e[0]) && on_border(e[1])) {
-                *p = params.border_penalty;
-            }
-        }
-        // A facet whose three edges have no other candidate stands alone (a
-        // stray triple of clusters): it keeps the penalty, else it would be
-        // selected for free as a lone triangle.
-        for fe in cand.facet_edges {
-            let alone = |e: &u32| count.get(*e as usize).is_some_and(|&c| c < 2);
-            if fe.iter().all(alone) {
-                for &e in fe {
-                    let (Some(p), Some(&[a, b])) =
-                        (penalties.get_mut(e as usize), cand.edges.get(e as usize))
-                    else {
-                        continue;
-                    };
-                    if !(on_border(a) && on_border(b)) {
-                        *p = params.border_penalty;
-                    }
-                }
-            }
-        }
-        Ok(())
-    })?;
+    }
     let rows = s.try_alloc_slice::<[u32; 6]>(nf, [u32::MAX; 6])?;
     for f in 0..nf {
         rows[f] = select::join(cand.facet_edges[f], groups.facet_groups[f], ne as u32);
