@@ -6,7 +6,7 @@
 use arena_tests::{load_shared_cloud, shared_clouds, stem};
 use std::mem::MaybeUninit;
 use std::time::Instant;
-use vsaqem_core::knn::try_neighbours_in;
+use vsaqem_core::clustering::knn::try_neighbours_in;
 use vsaqem_core::math::dist2;
 use vsaqem_core::{clean, clean_bytes, Arena, Params, Silent, V3};
 

@@ -249,7 +249,7 @@ pub fn distance_to_mesh(p: V3, v: &[V3], triangles: &[[u32; 3]]) -> f32 {
     triangles
         .iter()
         .map(|t| {
-            vsaqem_core::score::point_triangle_dist2(
+            vsaqem_core::meshing::score::point_triangle_dist2(
                 p,
                 v[t[0] as usize],
                 v[t[1] as usize],
@@ -327,7 +327,7 @@ pub fn noisy_cloud(
     sigma: f64,
     outliers: usize,
 ) -> (Vec<V3>, Vec<V3>) {
-    use vsaqem_core::math::Rng;
+    use vsaqem_core::rng::Rng;
     use vsaqem_core::sample::gaussian;
     let clean = cloud(shape, n, seed);
     let diag = diagonal(&clean);
@@ -558,7 +558,7 @@ pub fn boundary_loops(triangles: &[[u32; 3]]) -> usize {
 }
 
 /// The CLI's pre-passes in its order: [`vsaqem_core::clean`] (the points it
-/// keeps), then [`vsaqem_core::smooth::smooth`], each in a buffer of its own
+/// keeps), then [`vsaqem_core::smooth`], each in a buffer of its own
 /// bound. Returns the points to reconstruct.
 pub fn pre_passes(points: &[V3], params: &vsaqem_core::Params) -> vsaqem_core::Result<Vec<V3>> {
     use std::mem::MaybeUninit;
@@ -572,9 +572,9 @@ pub fn pre_passes(points: &[V3], params: &vsaqem_core::Params) -> vsaqem_core::R
         .filter(|(_, &k)| k)
         .map(|(p, _)| *p)
         .collect();
-    let need = vsaqem_core::smooth::smooth_bytes(kept.len(), params);
+    let need = vsaqem_core::smooth_bytes(kept.len(), params);
     let mut buf = vec![MaybeUninit::uninit(); need];
     let arena = vsaqem_core::Arena::new(&mut buf);
-    vsaqem_core::smooth::smooth(&arena, &mut kept, params, &mut vsaqem_core::Silent)?;
+    vsaqem_core::smooth(&arena, &mut kept, params, &mut vsaqem_core::Silent)?;
     Ok(kept)
 }

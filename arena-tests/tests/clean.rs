@@ -10,7 +10,7 @@
 
 use arena_tests::{cloud, load_shared_cloud, shared_clouds, stem, topology};
 use std::mem::MaybeUninit;
-use vsaqem_core::math::Rng;
+use vsaqem_core::rng::Rng;
 use vsaqem_core::sample::{scene_fragment, Shape, SCENE_CUBE, SCENE_SPHERE};
 use vsaqem_core::{
     arena_bytes, clean, clean_bytes, reconstruct, Arena, CleanStats, Error, Params, Silent, V3,

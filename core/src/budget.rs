@@ -40,8 +40,8 @@
 //! so the output never depends on how much memory the caller happened to give.
 
 use crate::arena::{padded_bytes, GRANULE};
+use crate::clustering::{knn, partition, quadric};
 use crate::params::{Params, MAX_K};
-use crate::{cluster, knn, quadric};
 
 /// The most clusters a run on `n` points can hold: the cap of splitting, or the
 /// components of the neighbour graph when there are more (see the module docs).
@@ -134,14 +134,14 @@ fn stages(n: usize, params: &Params) -> (usize, usize) {
     let k = params.k.clamp(1, MAX_K);
     let (neighbours, nb_kept) = knn::neighbours_bytes(n, k);
     let quadrics = nb_kept.saturating_add(quadric::planes_bytes(n));
-    let (cl_kept, cl_scratch) = cluster::cluster_bytes(n, cap_bound(n, params));
+    let (cl_kept, cl_scratch) = partition::partition_bytes(n, cap_bound(n, params));
     let kept = quadrics.saturating_add(cl_kept);
     let clustering = kept.saturating_add(cl_scratch);
     (neighbours.max(quadrics).max(clustering), kept)
 }
 
 /// Arena bytes that are always enough for one round of
-/// [`smooth`](crate::smooth::smooth) on `n` points with `k` neighbours: the k-NN
+/// [`smooth`](crate::prepass::smooth::smooth) on `n` points with `k` neighbours: the k-NN
 /// rows, then the larger of the grid's scratch (while they are found) and the
 /// copy of the points, plus 7 for a buffer that does not start on an 8-byte
 /// boundary.

@@ -1,6 +1,6 @@
-//! Small dense linear algebra: 3-vectors, the symmetric 3x3 eigenproblem (cyclic
-//! Jacobi, f64) and a seeded PRNG. Everything here is branch-light, allocation-free
-//! and deterministic: the same inputs give bit-identical outputs on every target.
+//! Small dense linear algebra: 3-vectors and the symmetric 3x3 eigenproblem
+//! (cyclic Jacobi, f64). Everything here is branch-light, allocation-free and
+//! deterministic: the same inputs give bit-identical outputs on every target.
 
 #![allow(missing_docs)]
 pub type V3 = [f32; 3];
@@ -143,38 +143,10 @@ impl Sym3 {
     }
 }
 
-/// SplitMix64: a tiny seeded generator with good statistical quality for sampling.
-/// Identical sequences on every platform.
-#[derive(Clone, Debug)]
-pub struct Rng(u64);
-
-impl Rng {
-    pub fn new(seed: u64) -> Self {
-        Rng(seed ^ 0x6A09_E667_F3BC_C908)
-    }
-
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in `0..n` (n > 0) without modulo bias worth caring about (n < 2^32).
-    pub fn below(&mut self, n: u32) -> u32 {
-        (((self.next_u64() >> 32) * n as u64) >> 32) as u32
-    }
-
-    /// Uniform in [0, 1).
-    pub fn unit_f64(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::rng::Rng;
 
     #[test]
     fn jacobi_reconstructs_random_symmetric_matrices() {

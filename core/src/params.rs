@@ -29,7 +29,7 @@ pub struct Params {
     /// distance relative to the bounding-box diagonal (see `split`): the generator
     /// must lie within this RMS distance of the tangent planes of every point of the
     /// cluster's neighbourhoods. 0 disables splitting. Default 0.005 (0.5 %).
-    /// The tolerance used is never below [`crate::cluster::NOISE_TOLERANCE`]
+    /// The tolerance used is never below [`crate::clustering::partition::NOISE_TOLERANCE`]
     /// times the noise floor of the planes ([`crate::Planes::noise`]): no
     /// clustering gets below it, so a lower tolerance would only split noise.
     pub tolerance: f32,
@@ -96,11 +96,11 @@ pub struct Params {
     pub outlier_sigma: f32,
     /// Fragment filter of the cleaning pre-pass ([`crate::clean()`]): connected
     /// pieces of the cloud (neighbours no farther apart than
-    /// [`crate::clean::LINK_SPACINGS`] average spacings) with fewer points than
+    /// [`crate::prepass::clean::LINK_SPACINGS`] average spacings) with fewer points than
     /// this are dropped; the largest piece is always kept. 0 turns the filter
     /// off. Default 64.
     pub min_fragment: u32,
-    /// Rounds of smoothing before reconstruction ([`crate::smooth::smooth`]):
+    /// Rounds of smoothing before reconstruction ([`crate::prepass::smooth::smooth`]):
     /// each moves every point onto the least-squares plane of its 24 nearest
     /// neighbours. For noise near the point spacing (about 1 % of the diagonal);
     /// rounds sharp edges. Default 0 (off).

@@ -2,7 +2,8 @@
 //! demo use (spheres, tori, boxes with sharp edges, ...), deterministic by seed.
 //! They fill a caller-owned slice, so firmware can use them too.
 
-use crate::math::{Rng, V3};
+use crate::math::V3;
+use crate::rng::Rng;
 use core::f64::consts::PI;
 
 /// A shape to sample.

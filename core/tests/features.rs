@@ -1,7 +1,7 @@
 //! Feature migration: QEM-optimal generators move onto sharp features.
 
 use std::mem::MaybeUninit;
-use vsaqem_core::math::Rng;
+use vsaqem_core::rng::Rng;
 use vsaqem_core::{cluster, cluster_bytes, Arena, Params, Silent, V3};
 
 /// Two half-planes of width `w` meeting at the y axis with dihedral `angle`.

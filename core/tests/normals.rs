@@ -8,9 +8,10 @@
 
 use std::f64::consts::TAU;
 use std::mem::MaybeUninit;
-use vsaqem_core::knn::try_neighbours_in;
-use vsaqem_core::math::{Rng, V3};
-use vsaqem_core::normals::pca;
+use vsaqem_core::clustering::knn::try_neighbours_in;
+use vsaqem_core::clustering::normals::pca;
+use vsaqem_core::math::V3;
+use vsaqem_core::rng::Rng;
 use vsaqem_core::{Arena, Silent};
 
 /// Angle between two lines (orientation does not matter for plane quadrics).

@@ -3,7 +3,7 @@
 use crate::io::{read_cloud, Cloud};
 use crate::normalize::Frame;
 use std::path::Path;
-use vsaqem_core::math::Rng;
+use vsaqem_core::rng::Rng;
 use vsaqem_core::sample::{fill, gaussian, Shape};
 
 /// Points ready for core, with the frame that maps results back.

@@ -99,7 +99,7 @@ pub fn arena_buffer(bytes: usize) -> Vec<MaybeUninit<u8>> {
 /// command itself: also enough for the cleaning pre-pass when it is on (it runs
 /// first, in the same buffer).
 pub fn with_clean(run: usize, n: usize, params: &Params) -> usize {
-    let run = run.max(vsaqem_core::smooth::smooth_bytes(n, params));
+    let run = run.max(vsaqem_core::smooth_bytes(n, params));
     if params.cleans() {
         run.max(vsaqem_core::clean_bytes(n, params))
     } else {
@@ -125,10 +125,10 @@ pub fn clean_input(
     let budget = buf.len();
     let (mut input, stats) = filter_input(input, params, budget, clock)?;
     if params.smooth_rounds > 0 {
-        let need = vsaqem_core::smooth::smooth_bytes(input.points.len(), params);
+        let need = vsaqem_core::smooth_bytes(input.points.len(), params);
         let mut own = arena_buffer(need.min(budget));
         let arena = Arena::new(&mut own);
-        vsaqem_core::smooth::smooth(&arena, &mut input.points, params, clock)
+        vsaqem_core::smooth(&arena, &mut input.points, params, clock)
             .map_err(|e| format!("{}: smoothing: {e}", input.name))?;
     }
     Ok((input, stats))

@@ -5,7 +5,7 @@
 //! no memory). Orientation is irrelevant downstream (plane quadrics use `n nᵀ`), so
 //! none is computed.
 
-use crate::knn::Neighbours;
+use crate::clustering::knn::Neighbours;
 use crate::math::{to_d3, Sym3, V3};
 
 /// A usable given normal: finite and not (near) zero. Returned unit length.

@@ -557,8 +557,8 @@ fn reverse_edges_in<'a>(arena: &'a Arena, knn: &[u32], k: usize) -> Result<(&'a 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::math::Rng;
     use crate::progress::Silent;
+    use crate::rng::Rng;
     use core::mem::MaybeUninit;
     use std::vec;
     use std::vec::Vec;

@@ -16,7 +16,7 @@
 //! lists) plus O(clusters), all scratch.
 
 use crate::arena::{padded_bytes, Scratch};
-use crate::cluster::Ctx;
+use crate::clustering::partition::Ctx;
 use crate::error::Result;
 use crate::math::V3;
 

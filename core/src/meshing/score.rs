@@ -22,9 +22,9 @@
 //! 45) per run, in practice ~100 supports per facet.
 
 use crate::arena::Alloc;
-use crate::candidates::{Candidates, Members};
 use crate::error::Result;
 use crate::math::{cross, dot, norm, sub, V3};
+use crate::meshing::candidates::{Candidates, Members};
 
 /// Lattice subdivisions of the coverage samples (45 samples).
 const LATTICE: usize = 8;
@@ -279,7 +279,7 @@ pub fn lattice_coverage(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::math::Rng;
+    use crate::rng::Rng;
 
     /// Brute force: the minimum over a fine barycentric sampling of the triangle.
     #[test]

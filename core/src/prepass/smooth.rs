@@ -16,10 +16,10 @@
 //! copy of the points, freed on return ([`smooth_bytes`]). Deterministic.
 
 use crate::arena::Alloc;
+use crate::clustering::knn::try_knn_rows_in;
+use crate::clustering::normals::neighbourhood_pca;
 use crate::error::Result;
-use crate::knn::try_knn_rows_in;
 use crate::math::{to_d3, V3};
-use crate::normals::neighbourhood_pca;
 use crate::params::{Params, MAX_K};
 use crate::progress::{tick, Progress, Stage};
 

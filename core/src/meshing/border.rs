@@ -18,10 +18,10 @@
 //! result. Deterministic.
 
 use crate::arena::Alloc;
-use crate::candidates::{Candidates, Members};
+use crate::clustering::quadric::Planes;
 use crate::error::Result;
 use crate::math::{cross, dot, norm, sub, V3};
-use crate::quadric::Planes;
+use crate::meshing::candidates::{Candidates, Members};
 
 /// The largest angular gap (radians, in `[0, 2π]`) around `p` among the points
 /// `around`, projected onto the plane of unit normal `n` through `p`. Points that

@@ -32,11 +32,12 @@
 //! then O(n k) for both filters (union-find with path halving).
 
 use crate::arena::Arena;
+use crate::clustering::knn;
 use crate::error::{Error, Result};
-use crate::knn;
 use crate::math::{dist2, V3};
 use crate::params::Params;
 use crate::progress::{tick, Progress, Stage};
+use crate::union_find::UnionFind;
 use crate::validate;
 
 /// Longest neighbour link inside one piece, in average spacings (see the module
@@ -187,18 +188,6 @@ fn mean_and_deviation(values: impl Iterator<Item = f32> + Clone) -> (f64, f64) {
     (mu, libm::sqrt(var))
 }
 
-/// Root of `i`'s piece, halving the path on the way. Roots are the lowest index
-/// of their piece (unions attach the higher root under the lower). Every entry
-/// of `parent` is an index into it.
-fn find(parent: &mut [u32], mut i: u32) -> u32 {
-    while parent[i as usize] != i {
-        let g = parent[parent[i as usize] as usize];
-        parent[i as usize] = g;
-        i = g;
-    }
-    i
-}
-
 /// Pieces of the kept points (k-NN links of squared length at most `link2`);
 /// clears `keep` on the points of pieces smaller than `min` except the largest.
 #[allow(clippy::too_many_arguments)]
@@ -213,10 +202,7 @@ fn drop_fragments(
     stats: &mut CleanStats,
 ) -> Result<()> {
     let n = points.len();
-    let parent = s.try_alloc_slice::<u32>(n, 0)?;
-    for (i, p) in parent.iter_mut().enumerate() {
-        *p = i as u32;
-    }
+    let mut pieces = UnionFind::try_new_in(s, n)?;
     for (i, row) in knn.chunks_exact(k).enumerate() {
         if !keep[i] {
             continue;
@@ -228,16 +214,14 @@ fn drop_fragments(
             if !keep[j as usize] || dist2(points[i], q) > link2 {
                 continue;
             }
-            let (a, b) = (find(parent, i as u32), find(parent, j));
-            if a != b {
-                parent[a.max(b) as usize] = a.min(b);
-            }
+            pieces.union(i as u32, j);
         }
     }
+    let root = pieces.into_roots();
     let size = s.try_alloc_slice::<u32>(n, 0)?;
     for i in 0..n {
         if keep[i] {
-            let r = find(parent, i as u32) as usize;
+            let r = root[i] as usize;
             size[r] += 1;
         }
     }
@@ -261,7 +245,7 @@ fn drop_fragments(
     }
     for i in 0..n {
         if keep[i] {
-            let r = find(parent, i as u32) as usize;
+            let r = root[i] as usize;
             if size[r] < min && r != largest {
                 keep[i] = false;
             }
@@ -274,8 +258,8 @@ fn drop_fragments(
 mod tests {
     use super::*;
     use crate::budget::clean_bytes;
-    use crate::math::Rng;
     use crate::progress::Silent;
+    use crate::rng::Rng;
     use crate::sample::{fill, scene_fragment, Shape};
     use core::mem::MaybeUninit;
     use std::vec;

@@ -20,9 +20,10 @@
 //! edge for the facets.
 
 use crate::arena::Alloc;
+use crate::clustering::knn::Neighbours;
 use crate::error::Result;
-use crate::knn::Neighbours;
 use crate::math::{cross, dist2, norm, sub, V3};
+use crate::union_find::UnionFind;
 
 /// Points of each cluster, contiguous.
 #[derive(Clone, Copy)]
@@ -446,9 +447,7 @@ fn merge_coincident<'b, A: Alloc<'b>>(
     rep: &mut [u32],
 ) -> Result<u32> {
     let m = generators.len();
-    for (j, r) in rep.iter_mut().enumerate() {
-        *r = j as u32;
-    }
+    let mut sets = UnionFind::new(rep);
     let t2 = tol * tol;
     arena.scratch(|s| -> Result<u32> {
         let order = s.try_alloc_slice::<u32>(m, 0)?;
@@ -466,29 +465,15 @@ fn merge_coincident<'b, A: Alloc<'b>>(
             let mut k = i + 1;
             while k < m && generators[order[k] as usize][0] - generators[a][0] <= tol {
                 let b = order[k] as usize;
-                if dist2(generators[a], generators[b]) <= t2 {
-                    let (ra, rb) = (root(rep, a), root(rep, b));
-                    if ra != rb {
-                        let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
-                        rep[hi] = lo as u32;
-                        merged += 1;
-                    }
+                if dist2(generators[a], generators[b]) <= t2 && sets.union(a as u32, b as u32) {
+                    merged += 1;
                 }
                 k += 1;
             }
         }
-        for j in 0..m {
-            rep[j] = root(rep, j) as u32;
-        }
+        sets.into_roots();
         Ok(merged)
     })
-}
-
-fn root(rep: &[u32], mut j: usize) -> usize {
-    while rep[j] as usize != j {
-        j = rep[j] as usize;
-    }
-    j
 }
 
 fn dot3(a: V3, b: V3) -> f32 {

@@ -28,10 +28,11 @@
 //! edges) scratch. Cost: linear in faces and edges.
 
 use crate::arena::{Alloc, Arena};
-use crate::candidates::degenerate;
-use crate::candidates::{Candidates, Members};
 use crate::error::Result;
 use crate::math::{cross, dist2, dot, norm, sub, V3};
+use crate::meshing::candidates::degenerate;
+use crate::meshing::candidates::{Candidates, Members};
+use crate::union_find::UnionFind;
 
 /// Facts about the output mesh.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -601,7 +602,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
         for (w, i) in (0..selected.len()).filter(|&i| keep[i]).enumerate() {
             faces[w] = cand.facets[i];
         }
-        let tol = crate::candidates::COINCIDENT * diag;
+        let tol = crate::meshing::candidates::COINCIDENT * diag;
         let clash = s.try_alloc_slice::<bool>(faces.len(), false)?;
         // Clusters on a boundary loop kept open (along the border of the data).
         let along = s.try_alloc_slice::<bool>(m, false)?;
@@ -666,13 +667,10 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
         let faces = &mut faces[..nf];
         // Vertex-manifold: union the corners at one generator across shared edges.
         let table = edge_table(s, faces)?;
-        let parent = s.try_alloc_slice::<u32>(3 * nf, 0)?;
-        for (i, p) in parent.iter_mut().enumerate() {
-            *p = i as u32;
-        }
-        let corner = |f: usize, v: u32| -> usize {
+        let mut fans = UnionFind::try_new_in(s, 3 * nf)?;
+        let corner = |f: usize, v: u32| -> u32 {
             let k = faces[f].iter().position(|&x| x == v).unwrap_or(0);
-            3 * f + k
+            (3 * f + k) as u32
         };
         let mut boundary = 0u32;
         let on_boundary = s.try_alloc_slice::<bool>(m, false)?;
@@ -692,7 +690,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
                 [(_, f), (_, g), ..] => {
                     let (u, v) = ((k >> 32) as u32, k as u32);
                     for w in [u, v] {
-                        union(parent, corner(*f as usize, w), corner(*g as usize, w));
+                        fans.union(corner(*f as usize, w), corner(*g as usize, w));
                     }
                 }
                 [] => {}
@@ -700,10 +698,11 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             i += run.len().max(1);
         }
         // One output vertex per corner group, numbered in face order.
+        let fan = fans.into_roots();
         let vertex_of_root = s.try_alloc_slice::<u32>(3 * nf, NO)?;
         let mut nv = 0u32;
         for c in 0..3 * nf {
-            let r = find(parent, c);
+            let r = fan[c] as usize;
             if vertex_of_root[r] == NO {
                 vertex_of_root[r] = nv;
                 nv += 1;
@@ -752,7 +751,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
         let triangles = out.try_alloc_slice::<[u32; 3]>(nf, [0; 3])?;
         for f in 0..nf {
             for k in 0..3 {
-                let v = vertex_of_root[find(parent, 3 * f + k)];
+                let v = vertex_of_root[fan[3 * f + k] as usize];
                 let cl = faces[f][k];
                 let c = cl as usize;
                 // A border cluster's vertex on the boundary goes onto the data's border.
@@ -813,23 +812,6 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
         };
         Ok((Some(mesh), stats))
     })
-}
-
-fn find(parent: &mut [u32], mut i: usize) -> usize {
-    while parent[i] as usize != i {
-        let p = parent[i] as usize;
-        parent[i] = parent[p];
-        i = p;
-    }
-    i
-}
-
-fn union(parent: &mut [u32], a: usize, b: usize) {
-    let (ra, rb) = (find(parent, a), find(parent, b));
-    if ra != rb {
-        let (lo, hi) = if ra < rb { (ra, rb) } else { (rb, ra) };
-        parent[hi] = lo as u32;
-    }
 }
 
 #[cfg(test)]

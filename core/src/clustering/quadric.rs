@@ -11,10 +11,10 @@
 //! Sums over clusters use the 10-coefficient [`Quadric`] in `f64`.
 
 use crate::arena::Arena;
+use crate::clustering::knn::Neighbours;
+use crate::clustering::normals;
 use crate::error::Result;
-use crate::knn::Neighbours;
 use crate::math::{dist2, Sym3, D3, V3};
-use crate::normals;
 use crate::progress::{tick, Progress, Stage};
 
 /// `√a · (n, -n·p)` for one point.
@@ -151,7 +151,7 @@ const FLOOR_BINS: usize = ((FLOOR_OCTAVES.1 - FLOOR_OCTAVES.0) * FLOOR_BINS_PER_
 
 /// The median over the first `n` points of `√(min_x Q_v(i)(x) / W_i)`: how far,
 /// RMS, the tangent planes of a point's neighbourhood stay from any single
-/// point. It is the least error [`crate::split`] can reach, so a tolerance below
+/// point. It is the least error [`crate::clustering::split`] can reach, so a tolerance below
 /// it splits noise, not shape. The median of a log-scale histogram around the
 /// spacing (160 bins on the stack, no arena memory), to within 4.4 %, over
 /// every point below 8192 points and every `n / 4096`-th point beyond (at least
@@ -304,7 +304,8 @@ impl Quadric {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::math::{dot_d, Rng};
+    use crate::math::dot_d;
+    use crate::rng::Rng;
 
     fn random_quadric(rng: &mut Rng, planes: usize) -> Quadric {
         let mut q = Quadric::default();

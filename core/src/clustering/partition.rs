@@ -26,13 +26,15 @@
 //! O(clusters). Cost per pass: O(n k log n).
 
 use crate::arena::{padded_bytes, Arena, Scratch};
+use crate::clustering::knn::Neighbours;
+use crate::clustering::quadric::{Planes, Quadric};
+use crate::clustering::split;
 use crate::error::Result;
-use crate::knn::Neighbours;
-use crate::math::{dist2, Rng, V3};
+use crate::math::{dist2, V3};
 use crate::params::Params;
 use crate::progress::{tick, Progress, Stage};
-use crate::quadric::{Planes, Quadric};
-use crate::split;
+use crate::rng::Rng;
+use crate::union_find::UnionFind;
 
 /// Label of a point not reached yet.
 pub const NONE: u32 = 0x7FFF_FFFF;
@@ -126,7 +128,7 @@ impl Ctx<'_, '_> {
 /// rival, heap), a generator update (116 per cluster), a splitting batch
 /// ([`split::split_bytes`]) and a refinement ([`ClusterState::refine`], 9 per
 /// cluster, then a partition). Keep in step with the functions named.
-pub fn cluster_bytes(n: usize, cap: usize) -> (usize, usize) {
+pub fn partition_bytes(n: usize, cap: usize) -> (usize, usize) {
     let sum = |list: &[usize]| list.iter().fold(0usize, |a, &b| a.saturating_add(b));
     let kept = sum(&[
         padded_bytes::<u32>(n),   // labels
@@ -521,41 +523,23 @@ fn relative(err2: f32, diag: f32) -> f32 {
     }
 }
 
-fn find(parent: &mut [u32], mut i: u32) -> u32 {
-    while parent[i as usize] != i {
-        let p = parent[i as usize];
-        parent[i as usize] = parent[p as usize];
-        i = p;
-    }
-    i
-}
-
 /// Component root of every point (the smallest index of its component) by
 /// union-find over the k-NN edges, in scratch. Returns the roots and their count.
 fn components<'s>(s: &'s Scratch, nb: &Neighbours) -> Result<(&'s mut [u32], u32)> {
     let n = nb.len();
-    let parent = s.try_alloc_slice::<u32>(n, 0)?;
-    for (i, p) in parent.iter_mut().enumerate() {
-        *p = i as u32;
-    }
+    let mut sets = UnionFind::try_new_in(s, n)?;
     for i in 0..n {
         for &j in nb.of(i) {
-            let (a, b) = (find(parent, i as u32), find(parent, j));
-            if a != b {
-                // The smaller index becomes the root, whatever the edge order.
-                let (lo, hi) = if a < b { (a, b) } else { (b, a) };
-                parent[hi as usize] = lo;
-            }
+            sets.union(i as u32, j);
         }
     }
-    let mut count = 0;
-    for i in 0..n {
-        parent[i] = find(parent, i as u32);
-        if parent[i] == i as u32 {
-            count += 1;
-        }
-    }
-    Ok((parent, count))
+    let roots = sets.into_roots();
+    let count = roots
+        .iter()
+        .enumerate()
+        .filter(|&(i, &r)| r == i as u32)
+        .count() as u32;
+    Ok((roots, count))
 }
 
 /// One seed in each component (a uniformly random member), then uniform draws
