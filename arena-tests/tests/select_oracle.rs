@@ -1,4 +1,4 @@
-//! Oracle tests of facet selection (`vsaqem_core::select`, DESIGN step 10): the
+//! Oracle tests of facet selection (`vsaqem_core::select`): the
 //! hand-written branch-and-bound against an exact MIP (good_lp + microlp).
 //!
 //! Properties checked, with edges only and with geometric fold groups (around
@@ -559,7 +559,7 @@ fn bnb_matches_the_mip_on_random_small_instances() {
     );
 }
 
-/// Sphere instances of the size DESIGN step 10 meets, with edges only and with
+/// Sphere instances of the size the selection meets in the pipeline, with edges only and with
 /// their fold groups: the B&B proves them optimal and agrees with the MIP. Prints
 /// what it took (`--nocapture`).
 #[test]

@@ -41,7 +41,7 @@
 //! - [`clean()`]: statistical outliers and small isolated fragments, on the exact
 //!   k-NN graph; its arena bound is [`clean_bytes`], never more than
 //!   [`arena_bytes`].
-//! - [`smooth`](prepass::smooth::smooth): points onto the least-squares plane of
+//! - [`smooth()`]: points onto the least-squares plane of
 //!   their neighbours.
 //!
 //! **Clustering** ([`clustering`]; [`cluster`] runs it alone):

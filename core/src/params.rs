@@ -84,9 +84,9 @@ pub struct Params {
     /// the earlier stages left of their worst cases, and a denser graph fails
     /// with [`Error::MeshCapacity`], whatever the buffer's size. 0 (the default)
     /// means `400 √k` bytes (1385 at k = 12; the candidate graph grows about
-    /// like the neighbourhood's radius). Chosen from measurements: enough for
-    /// every test cloud with 12 or more points per cluster of the cap, while
-    /// [`crate::arena_bytes`] stays within twice the measured peak.
+    /// like the neighbourhood's radius). Chosen from measurements
+    /// (`bench/notes.md`): enough for clouds with 12 or more points per cluster
+    /// of the cap, while [`crate::arena_bytes`] stays within twice the peak.
     pub mesh_bytes_per_cluster: u32,
     /// Statistical outlier filter of the cleaning pre-pass ([`crate::clean()`]),
     /// in standard deviations: a point whose mean distance to its `k` nearest

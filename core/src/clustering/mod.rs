@@ -12,7 +12,8 @@
 //! 5. [`split`]: batch splitting of the clusters whose error exceeds the
 //!    tolerance (Eq. 6).
 //!
-//! [`try_clustering_in`] runs the stages in that order and keeps their results.
+//! [`cluster`](crate::cluster()) and [`reconstruct`](crate::reconstruct) run the
+//! stages in that order.
 
 pub mod knn;
 pub mod normals;

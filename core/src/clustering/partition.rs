@@ -83,12 +83,10 @@ pub struct ClusterStats {
 
 /// Multiple of the noise floor ([`Planes::noise`]) below which the splitting
 /// tolerance is not taken: the largest point error of a cluster of noisy points
-/// sits at 3-3.8 times the median floor however many clusters there are
-/// (measured on the generated shapes with Gaussian noise of 0.25-1 % of the
-/// diagonal, even at the cluster cap), so a lower tolerance only splits noise,
-/// up to the cap, and leaves too few points per cluster to mesh. Clean clouds
-/// have floors of 0.0001-0.001 of the diagonal (the shared scans included), so
-/// at the default tolerance of 0.005 this never binds on them.
+/// sits a few times above the floor however many clusters there are, so a lower
+/// tolerance only splits noise, up to the cap, and leaves too few points per
+/// cluster to mesh. On clean clouds the floor is far below the default
+/// tolerance, so this never binds there (`bench/notes.md` has the figures).
 pub const NOISE_TOLERANCE: f32 = 4.0;
 
 /// The result of clustering: a label per point, a generator per cluster.

@@ -2,7 +2,7 @@
 //!
 //! A point's plane quadric is `Q_p = a_p · u uᵀ` with `u = (n, -n·p)` and support
 //! area `a_p = (mean k-NN distance)² / 2` (Eq. 2 as the reference implements it),
-//! scaled down where the PCA normal is unreliable (see [`confidence`]).
+//! scaled down where the PCA normal is unreliable (see `confidence`).
 //! It has rank one, so core stores its factor `√a_p · u` (4 × f32 = 16 bytes per
 //! point) rather than the 10 coefficients: the same quadric, 24 bytes per point
 //! less. The diffused quadric of Eq. 3, `Q_v(i) = Σ_{j ∈ N(i) ∪ {i}} Q_p(j)`, is

@@ -5,14 +5,13 @@
 //! the adjacent clusters surround it (gaps of about 60°); where the data ends,
 //! there is nothing on one side (gaps near 180°). It must also be at an end of the
 //! candidate graph: one of its candidate edges has fewer than two candidate
-//! facets. On closed surfaces the gap alone flagged about 5 % of the clusters
-//! (thin parts, sharp edges: 50 of 1000 on the demo shape, 53 on the horse);
-//! with both tests 3 and 14.
+//! facets. The gap alone also fires at thin parts and sharp edges of closed
+//! surfaces; the second test keeps those inside.
 //!
 //! Clusters, not points: the k nearest neighbours of a point on a randomly
 //! sampled surface bunch to one side often enough that a per-point gap test flags
-//! hundreds of interior points (measured: 30-160 of 20,000 on a sphere even with
-//! the 2-ring), while cluster neighbours are spread evenly by construction.
+//! interior points, while cluster neighbours are spread evenly by construction.
+//! The measurements behind both choices are in `bench/notes.md`.
 //!
 //! Cost: O(E log E + n) time for E candidate edges, O(E + m) scratch, m bytes of
 //! result. Deterministic.

@@ -1,4 +1,4 @@
-//! Candidate edges and facets (seed section 3.5, DESIGN step 8).
+//! Candidate edges and facets (seed section 3.5).
 //!
 //! Two clusters are joined by a candidate edge when a point of one and a point of
 //! the other are neighbours (the seed's rule), and across every 4-cycle of that

@@ -11,12 +11,13 @@
 //! 4. [`problem`]: the selection problem: a constraint per candidate edge (0 or 2
 //!    facets, 1 at a penalty where a border may be) and per fold group (at most
 //!    one facet), the facet scores as the objective (Eq. 7-8).
-//! 5. [`select`](crate::select): the exact 0/1 choice of facets by
+//! 5. [`select`]: the exact 0/1 choice of facets by
 //!    branch-and-bound.
 //! 6. [`output`]: the selected facets as a mesh: edge- and vertex-manifold,
 //!    oriented, small holes closed, loops along the data's border kept open.
 //!
-//! [`try_mesh_round_in`] runs one round of these stages in a scratch scope.
+//! [`reconstruct`](crate::reconstruct) runs one round of these stages in a
+//! scratch scope, and another after refinement.
 
 pub mod border;
 pub mod candidates;

@@ -1,4 +1,4 @@
-//! From selected facets to an oriented, 2-manifold triangle mesh (DESIGN step 11).
+//! From selected facets to an oriented, 2-manifold triangle mesh.
 //!
 //! - **Edge-manifold**: the selection gives every candidate edge 0 or 2 facets (1
 //!   where a border is allowed); a facet that would be an edge's third is dropped
