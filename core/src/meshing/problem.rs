@@ -71,12 +71,7 @@ pub(crate) fn try_problem_in<'s, 'b, A: Alloc<'b>>(
     )?;
     tick(progress, Stage::Candidates, 1, 1)?;
     tick(progress, Stage::Scoring, 0, 1)?;
-    let sp = ScoreParams {
-        epsilon: params.epsilon,
-        alpha_scale: params.alpha_scale,
-        fitting: params.fitting_weight,
-        coverage: params.coverage_weight,
-    };
+    let sp = ScoreParams::from(params);
     let scores = score::try_scores_in(s, points, &members, &cand, gens, nb.spacing, diag, &sp)?;
     tick(progress, Stage::Scoring, 1, 1)?;
     // Constraints: candidate edges (0 or 2 facets) and fold groups (at most one

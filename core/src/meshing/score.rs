@@ -24,6 +24,7 @@
 use crate::arena::Alloc;
 use crate::error::Result;
 use crate::math::{cross, dot, norm, sub, V3};
+use crate::params::Params;
 use crate::meshing::candidates::{Candidates, Members};
 
 /// Lattice subdivisions of the coverage samples (45 samples).
@@ -43,13 +44,14 @@ pub struct ScoreParams {
     pub coverage: f32,
 }
 
-impl Default for ScoreParams {
-    fn default() -> Self {
+impl From<&Params> for ScoreParams {
+    /// The score parameters of a run (their defaults live in [`Params`]).
+    fn from(params: &Params) -> Self {
         ScoreParams {
-            epsilon: 0.01,
-            alpha_scale: 5.0,
-            fitting: 0.4,
-            coverage: 0.3,
+            epsilon: params.epsilon,
+            alpha_scale: params.alpha_scale,
+            fitting: params.fitting_weight,
+            coverage: params.coverage_weight,
         }
     }
 }
