@@ -6,6 +6,11 @@
 pub type V3 = [f32; 3];
 
 #[inline]
+pub fn add(a: V3, b: V3) -> V3 {
+    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
+}
+
+#[inline]
 pub fn sub(a: V3, b: V3) -> V3 {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
@@ -22,6 +27,18 @@ pub fn cross(a: V3, b: V3) -> V3 {
         a[2] * b[0] - a[0] * b[2],
         a[0] * b[1] - a[1] * b[0],
     ]
+}
+
+/// A vector perpendicular to `n` (not normalised): `n` crossed with the x axis,
+/// or with the y axis when `n` is close to x. Non-zero for any non-zero `n`.
+#[inline]
+pub fn perpendicular(n: V3) -> V3 {
+    let axis = if n[0].abs() < 0.6 {
+        [1.0, 0.0, 0.0]
+    } else {
+        [0.0, 1.0, 0.0]
+    };
+    cross(n, axis)
 }
 
 /// Squared distance, computed the same way everywhere so that ties compare exactly.

@@ -21,6 +21,24 @@ pub struct Bounds {
     pub diag: f32,
 }
 
+impl Bounds {
+    /// The bounding box of `points` (finite ones; empty gives infinite
+    /// corners). O(n).
+    pub fn of(points: &[V3]) -> Bounds {
+        let mut lo = [f32::INFINITY; 3];
+        let mut hi = [f32::NEG_INFINITY; 3];
+        for p in points {
+            for axis in 0..3 {
+                lo[axis] = lo[axis].min(p[axis]);
+                hi[axis] = hi[axis].max(p[axis]);
+            }
+        }
+        let e = [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]];
+        let diag = libm::sqrtf(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
+        Bounds { lo, hi, diag }
+    }
+}
+
 /// Check everything about the input that can be checked without memory.
 pub fn check(points: &[V3], normals: Option<&[V3]>, params: &Params) -> Result<Bounds> {
     params.validate()?;
@@ -45,8 +63,6 @@ pub fn check(points: &[V3], normals: Option<&[V3]>, params: &Params) -> Result<B
             });
         }
     }
-    let mut lo = [f32::INFINITY; 3];
-    let mut hi = [f32::NEG_INFINITY; 3];
     for (index, p) in points.iter().enumerate() {
         for axis in 0..3 {
             let value = p[axis];
@@ -58,8 +74,6 @@ pub fn check(points: &[V3], normals: Option<&[V3]>, params: &Params) -> Result<B
                     normal: false,
                 });
             }
-            lo[axis] = lo[axis].min(value);
-            hi[axis] = hi[axis].max(value);
         }
     }
     if params.k == 0 || params.k > MAX_K || params.k >= n {
@@ -71,9 +85,7 @@ pub fn check(points: &[V3], normals: Option<&[V3]>, params: &Params) -> Result<B
     if let Some(d) = degeneracy(points) {
         return Err(Error::Degenerate(d));
     }
-    let e = [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]];
-    let diag = libm::sqrtf(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
-    Ok(Bounds { lo, hi, diag })
+    Ok(Bounds::of(points))
 }
 
 /// Whether the points fail to span 3D: every point within `1e-6` of the extent

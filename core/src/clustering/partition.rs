@@ -35,6 +35,7 @@ use crate::params::Params;
 use crate::progress::{tick, Progress, Stage};
 use crate::rng::Rng;
 use crate::union_find::UnionFind;
+use crate::validate::Bounds;
 
 /// Label of a point not reached yet.
 pub const NONE: u32 = 0x7FFF_FFFF;
@@ -156,23 +157,8 @@ pub fn partition_bytes(n: usize, cap: usize) -> (usize, usize) {
     (kept, scratch)
 }
 
-/// Run the whole clustering: initialisation, then rounds of partition/update
-/// passes separated by splitting batches.
-pub fn try_cluster_in<'a>(
-    arena: &'a Arena,
-    points: &[V3],
-    nb: &Neighbours,
-    planes: &Planes,
-    diag: f32,
-    params: &Params,
-    progress: &mut dyn Progress,
-) -> Result<Clusters<'a>> {
-    try_cluster_state_in(arena, points, nb, planes, diag, params, progress)
-        .map(ClusterState::freeze)
-}
-
-/// A clustering that can still grow: what [`try_cluster_in`] computes, kept
-/// mutable so that meshing can ask for more generators where the mesh leaves
+/// A clustering that can still grow: what [`try_cluster_state_in`] computes,
+/// kept mutable so that meshing can ask for more generators where the mesh leaves
 /// data uncovered ([`ClusterState::refine`]).
 pub struct ClusterState<'a> {
     labels: &'a mut [u32],
@@ -298,27 +284,15 @@ impl<'a> ClusterState<'a> {
         self.stats.clusters = grown as u32;
         self.stats.max_error = relative(
             split::max_error2(&ctx, self.labels, &self.generators[..grown]),
-            diag_of(&ctx),
+            Bounds::of(ctx.points).diag,
         );
         Ok(added)
     }
 }
 
-/// The bounding-box diagonal of the points (for relative errors after refinement).
-fn diag_of(ctx: &Ctx) -> f32 {
-    let mut lo = [f32::INFINITY; 3];
-    let mut hi = [f32::NEG_INFINITY; 3];
-    for p in ctx.points {
-        for a in 0..3 {
-            lo[a] = lo[a].min(p[a]);
-            hi[a] = hi[a].max(p[a]);
-        }
-    }
-    let e = [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]];
-    libm::sqrtf(e[0] * e[0] + e[1] * e[1] + e[2] * e[2])
-}
-
-/// [`try_cluster_in`], keeping the state open for refinement.
+/// Run the whole clustering: initialisation, then rounds of partition/update
+/// passes separated by splitting batches. The state stays open for refinement;
+/// [`ClusterState::freeze`] makes it final.
 pub fn try_cluster_state_in<'a>(
     arena: &'a Arena,
     points: &[V3],

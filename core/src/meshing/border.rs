@@ -19,7 +19,7 @@
 use crate::arena::Alloc;
 use crate::clustering::quadric::Planes;
 use crate::error::Result;
-use crate::math::{cross, dot, norm, sub, V3};
+use crate::math::{cross, dot, norm, perpendicular, sub, V3};
 use crate::meshing::candidates::{Candidates, Members};
 
 /// The largest angular gap (radians, in `[0, 2π]`) around `p` among the points
@@ -35,13 +35,8 @@ pub fn largest_gap(
     scratch: &mut [f32],
 ) -> (f32, V3) {
     const TAU: f32 = core::f32::consts::TAU;
-    // A tangent basis: any vector not parallel to n, made orthogonal.
-    let a = if n[0].abs() < 0.6 {
-        [1.0, 0.0, 0.0]
-    } else {
-        [0.0, 1.0, 0.0]
-    };
-    let u = cross(n, a);
+    // A tangent basis.
+    let u = perpendicular(n);
     let lu = norm(u);
     if lu.is_nan() || lu <= 0.0 {
         return (TAU, [0.0; 3]);

@@ -22,7 +22,7 @@
 use crate::arena::Alloc;
 use crate::clustering::knn::Neighbours;
 use crate::error::Result;
-use crate::math::{cross, dist2, norm, sub, V3};
+use crate::math::{cross, dist2, dot, norm, perpendicular, sub, V3};
 use crate::union_find::UnionFind;
 
 /// Points of each cluster, contiguous.
@@ -476,10 +476,6 @@ fn merge_coincident<'b, A: Alloc<'b>>(
     })
 }
 
-fn dot3(a: V3, b: V3) -> f32 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
 /// Sides of the candidate edges: around each edge, facets whose wings (the
 /// half-planes from the edge to their third vertex) lie within 45 degrees of each
 /// other form a *fold group*, of which a surface can use at most one facet.
@@ -546,12 +542,7 @@ pub fn try_fold_groups_in<'a, 'b, A: Alloc<'b>>(
             }
             let t = t.map(|x| x / lt);
             // A frame (u, v) perpendicular to the edge.
-            let helper = if t[0].abs() < 0.6 {
-                [1.0, 0.0, 0.0]
-            } else {
-                [0.0, 1.0, 0.0]
-            };
-            let u = cross(t, helper);
+            let u = perpendicular(t);
             let lu = norm(u);
             let u = u.map(|x| x / lu);
             let v = cross(t, u);
@@ -562,7 +553,7 @@ pub fn try_fold_groups_in<'a, 'b, A: Alloc<'b>>(
                     .find(|&x| x != a && x != b)
                     .unwrap_or(a);
                 let w = sub(generators[c as usize], pa);
-                ang[i] = (libm::atan2f(dot3(w, v), dot3(w, u)), f, k);
+                ang[i] = (libm::atan2f(dot(w, v), dot(w, u)), f, k);
             }
             let ang = &mut ang[..list.len()];
             ang.sort_unstable_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));

@@ -29,7 +29,7 @@
 
 use crate::arena::{Alloc, Arena};
 use crate::error::Result;
-use crate::math::{cross, dist2, dot, norm, sub, V3};
+use crate::math::{add, cross, dist2, dot, norm, sub, V3};
 use crate::meshing::candidates::degenerate;
 use crate::meshing::candidates::{Candidates, Members};
 use crate::union_find::UnionFind;
@@ -530,10 +530,6 @@ fn fill_notches(
 
 fn face_normal(p: [V3; 3]) -> V3 {
     cross(sub(p[1], p[0]), sub(p[2], p[0]))
-}
-
-fn add(a: V3, b: V3) -> V3 {
-    [a[0] + b[0], a[1] + b[1], a[2] + b[2]]
 }
 
 /// When [`try_mesh_in`] writes the mesh out.

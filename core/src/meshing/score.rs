@@ -24,8 +24,8 @@
 use crate::arena::Alloc;
 use crate::error::Result;
 use crate::math::{cross, dot, norm, sub, V3};
-use crate::params::Params;
 use crate::meshing::candidates::{Candidates, Members};
+use crate::params::Params;
 
 /// Lattice subdivisions of the coverage samples (45 samples).
 const LATTICE: usize = 8;
