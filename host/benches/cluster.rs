@@ -6,7 +6,7 @@
 
 use std::path::Path;
 use std::time::Duration;
-use vsaqem::cmd::arena_buffer;
+use vsaqem::args::arena_buffer;
 use vsaqem::input::prepare;
 use vsaqem::io::read_cloud;
 use vsaqem::progress::StageClock;

@@ -10,7 +10,8 @@
 
 use std::path::Path;
 use std::time::Duration;
-use vsaqem::cmd::{arena_buffer, clean_input};
+use vsaqem::args::arena_buffer;
+use vsaqem::clean::clean_input;
 use vsaqem::input::prepare;
 use vsaqem::io::read_cloud;
 use vsaqem::progress::StageClock;

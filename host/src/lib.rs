@@ -1,6 +1,8 @@
 //! The std front end of vsaqem: file formats, normalisation, arena sizing, reports.
 //! No algorithm lives here; see `vsaqem-core`.
 
+pub mod args;
+pub mod clean;
 pub mod cmd;
 pub mod eval;
 pub mod geom;

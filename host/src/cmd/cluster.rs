@@ -1,157 +1,16 @@
 //! `vsaqem cluster`: the input points coloured by cluster, plus the generators.
 
-use crate::cmd::{
-    arena_buffer, clean_input, clean_json, clean_text, label_colour, with_clean, MemoryArgs,
-};
-use crate::input::{self, Prepared};
+use crate::args::{arena_buffer, read_input, CleanArgs, ClusterArgs, InputArgs, MemoryArgs};
+use crate::clean::{clean_input, with_clean};
+use crate::cmd::{clean_json, clean_text, label_colour};
+use crate::input::Prepared;
 use crate::io::{write_atomic, write_points_ply};
 use crate::json;
 use crate::progress::StageClock;
 use clap::Args;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
-use vsaqem_core::sample::Shape;
 use vsaqem_core::{CleanStats, Clustered, Params};
-
-/// Where the points come from.
-#[derive(Args, Debug, Clone)]
-pub struct InputArgs {
-    /// Point cloud to read (.ply, .xyz/.xyzn/.txt/.pts, .pcd; normals used when
-    /// present). Without it, a built-in generated sample is used.
-    pub input: Option<PathBuf>,
-    /// Built-in sample when no input is given: demo, sphere, torus, box, cylinder
-    /// (closed); hemisphere, tube, wave, holed-sphere (open surfaces); scene (a
-    /// sphere and a cube apart, plus a stray fragment of 40 points).
-    #[arg(long, default_value = "demo", value_parser = parse_shape)]
-    pub sample: Shape,
-    /// Points of the built-in sample.
-    #[arg(long, default_value_t = 20_000)]
-    pub points: usize,
-    /// Gaussian noise added to the built-in sample, as a fraction of its
-    /// bounding-box diagonal (e.g. 0.005 = 0.5 %).
-    #[arg(long, default_value_t = 0.0)]
-    pub noise: f64,
-}
-
-fn parse_shape(s: &str) -> Result<Shape, String> {
-    Shape::from_name(s).ok_or_else(|| {
-        format!(
-            "unknown sample '{s}': use demo, sphere, torus, box, cylinder (closed), \
-             hemisphere, tube, wave or holed-sphere (open), or scene (two objects and a \
-             stray fragment)"
-        )
-    })
-}
-
-/// The cleaning pre-pass (`vsaqem_core::clean`); defaults are
-/// `vsaqem_core::Params::default()`.
-#[derive(Args, Debug, Clone)]
-pub struct CleanArgs {
-    /// Remove statistical outliers: points whose mean distance to their --knn
-    /// nearest neighbours is more than SIGMA standard deviations above the mean
-    /// of all points (e.g. 2 or 3; 0: off).
-    #[arg(long = "outliers", value_name = "SIGMA", allow_hyphen_values = true,
-          default_value_t = Params::default().outlier_sigma, value_parser = parse_sigma)]
-    pub outlier_sigma: f32,
-    /// Drop isolated pieces of fewer than N points (pieces: neighbours within
-    /// 4 average spacings of each other); the largest piece is always kept
-    /// (0: off).
-    #[arg(long, value_name = "N", allow_hyphen_values = true,
-          default_value_t = Params::default().min_fragment, value_parser = parse_fragment)]
-    pub min_fragment: u32,
-    /// Rounds of smoothing after cleaning: each moves every point onto the
-    /// least-squares plane of its 24 nearest neighbours. For noise near the point
-    /// spacing (about 1 % of the diagonal); rounds sharp edges (0: off).
-    #[arg(long = "smooth", value_name = "ROUNDS", allow_hyphen_values = true,
-          default_value_t = Params::default().smooth_rounds, value_parser = parse_rounds)]
-    pub smooth_rounds: u32,
-}
-
-fn parse_rounds(s: &str) -> Result<u32, String> {
-    s.trim()
-        .parse::<u32>()
-        .map_err(|_| format!("'{s}' is not a whole number of rounds >= 0 (0: off)"))
-}
-
-fn parse_sigma(s: &str) -> Result<f32, String> {
-    match s.trim().parse::<f32>() {
-        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
-        _ => Err(format!(
-            "'{s}' is not a number of standard deviations >= 0 (e.g. 2 or 3; 0: off)"
-        )),
-    }
-}
-
-fn parse_fragment(s: &str) -> Result<u32, String> {
-    s.trim()
-        .parse::<u32>()
-        .map_err(|_| format!("'{s}' is not a whole number of points >= 0 (0: off)"))
-}
-
-impl CleanArgs {
-    /// `params` with these cleaning settings.
-    pub fn apply(&self, params: Params) -> Params {
-        Params {
-            outlier_sigma: self.outlier_sigma,
-            min_fragment: self.min_fragment,
-            smooth_rounds: self.smooth_rounds,
-            ..params
-        }
-    }
-}
-
-/// Clustering parameters; defaults are `vsaqem_core::Params::default()`.
-#[derive(Args, Debug, Clone)]
-pub struct ClusterArgs {
-    /// Initial number of clusters (generators); the output has about this many
-    /// vertices, more where splitting adds some.
-    #[arg(long, default_value_t = Params::default().clusters)]
-    pub clusters: u32,
-    /// Cap on clusters that splitting may reach (0: twice --clusters).
-    #[arg(long, default_value_t = Params::default().max_clusters)]
-    pub max_clusters: u32,
-    /// Partition + generator-update passes before splitting.
-    #[arg(long, default_value_t = Params::default().iterations)]
-    pub iterations: u32,
-    /// Passes after each splitting batch.
-    #[arg(long, default_value_t = Params::default().split_iterations)]
-    pub split_iterations: u32,
-    /// Splitting batches at most (0 disables splitting).
-    #[arg(long, default_value_t = Params::default().split_rounds)]
-    pub split_rounds: u32,
-    /// Largest allowed error of a point against its cluster's generator, as a
-    /// fraction of the bounding-box diagonal (0 disables splitting); never below
-    /// 4 times the noise floor of the data.
-    #[arg(long, default_value_t = Params::default().tolerance)]
-    pub tolerance: f32,
-    /// Weight of the Euclidean term in the partition cost (dimensionless).
-    #[arg(long, default_value_t = Params::default().lambda)]
-    pub lambda: f32,
-    /// Neighbours per point (1 to 32).
-    #[arg(long, default_value_t = Params::default().k)]
-    pub knn: usize,
-    /// Seed of the generator initialisation (same seed, same output).
-    #[arg(long, default_value_t = Params::default().seed)]
-    pub seed: u64,
-}
-
-impl ClusterArgs {
-    /// The core parameters.
-    pub fn params(&self) -> Params {
-        Params {
-            k: self.knn,
-            clusters: self.clusters,
-            max_clusters: self.max_clusters,
-            iterations: self.iterations,
-            split_iterations: self.split_iterations,
-            split_rounds: self.split_rounds,
-            tolerance: self.tolerance,
-            lambda: self.lambda,
-            seed: self.seed,
-            ..Params::default()
-        }
-    }
-}
 
 /// `vsaqem cluster`.
 #[derive(Args, Debug)]
@@ -174,21 +33,6 @@ pub struct Cmd {
     /// No progress bar.
     #[arg(short, long)]
     pub quiet: bool,
-}
-
-/// Read (or sample) and normalise, timing it.
-pub fn read_input(args: &InputArgs, clock: &mut StageClock) -> Result<Prepared, String> {
-    let t = Instant::now();
-    let (name, cloud) = input::load(
-        args.input.as_deref(),
-        args.sample,
-        args.points,
-        args.noise,
-        1,
-    )?;
-    let prepared = input::prepare(name, cloud);
-    clock.record("read", t.elapsed());
-    Ok(prepared)
 }
 
 /// Run the command.

@@ -1,7 +1,8 @@
 //! `vsaqem reconstruct`: point cloud to mesh (PLY, OBJ or OFF by extension).
 
-use crate::cmd::cluster::{read_input, CleanArgs, ClusterArgs, InputArgs};
-use crate::cmd::{arena_buffer, clean_input, clean_json, clean_text, with_clean, MemoryArgs};
+use crate::args::{arena_buffer, read_input, CleanArgs, ClusterArgs, InputArgs, MemoryArgs};
+use crate::clean::{clean_input, with_clean};
+use crate::cmd::{clean_json, clean_text};
 use crate::input::Prepared;
 use crate::io::{write_atomic, write_mesh, MeshFormat};
 use crate::json;

@@ -1,0 +1,77 @@
+//! The cleaning pre-pass of `cluster` and `reconstruct`: the outlier and fragment
+//! filters of `vsaqem_core::clean`, then smoothing, each in a buffer of its own.
+
+use crate::args::arena_buffer;
+use crate::input::Prepared;
+use crate::progress::StageClock;
+use std::mem::MaybeUninit;
+use vsaqem_core::{Arena, CleanStats, Error, Params};
+
+/// The arena a run on `n` points needs when `run` bytes are enough for the
+/// command itself: also enough for the cleaning pre-pass when it is on (it runs
+/// first, in the same buffer).
+pub fn with_clean(run: usize, n: usize, params: &Params) -> usize {
+    let run = run.max(vsaqem_core::smooth::smooth_bytes(n, params));
+    if params.cleans() {
+        run.max(vsaqem_core::clean_bytes(n, params))
+    } else {
+        run
+    }
+}
+
+/// The cleaning pre-pass (`vsaqem_core::clean`), then the kept points compacted
+/// and normalised again, then `--smooth` rounds of smoothing. `None` when both
+/// filters are off; the input is handed back untouched when nothing is removed
+/// and nothing smoothed, so the output is then the same as without cleaning.
+///
+/// Each pre-pass gets a buffer of its own, at most `buf`'s size (the budget),
+/// freed when it ends: working in `buf` would leave its pages resident beside
+/// those the reconstruction then touches (1M points: 175 MB peak RSS instead of
+/// 139 MB), while `buf`'s own pages stay untouched until the run uses them.
+pub fn clean_input(
+    input: Prepared,
+    params: &Params,
+    buf: &mut [MaybeUninit<u8>],
+    clock: &mut StageClock,
+) -> Result<(Prepared, Option<CleanStats>), String> {
+    let budget = buf.len();
+    let (mut input, stats) = filter_input(input, params, budget, clock)?;
+    if params.smooth_rounds > 0 {
+        let need = vsaqem_core::smooth::smooth_bytes(input.points.len(), params);
+        let mut own = arena_buffer(need.min(budget));
+        let arena = Arena::new(&mut own);
+        vsaqem_core::smooth::smooth(&arena, &mut input.points, params, clock)
+            .map_err(|e| format!("{}: smoothing: {e}", input.name))?;
+    }
+    Ok((input, stats))
+}
+
+/// The cleaning filters of [`clean_input`].
+fn filter_input(
+    input: Prepared,
+    params: &Params,
+    budget: usize,
+    clock: &mut StageClock,
+) -> Result<(Prepared, Option<CleanStats>), String> {
+    if !params.cleans() {
+        return Ok((input, None));
+    }
+    let need = vsaqem_core::clean_bytes(input.points.len(), params);
+    let mut own = arena_buffer(need.min(budget));
+    let arena = Arena::new(&mut own);
+    let mut keep = vec![true; input.points.len()];
+    let stats = match vsaqem_core::clean(&arena, &input.points, params, &mut keep, clock) {
+        Ok(s) => s,
+        Err(e @ Error::TooFewKept { .. }) => {
+            return Err(format!(
+                "{}: {e} (--outliers {}, --min-fragment {})",
+                input.name, params.outlier_sigma, params.min_fragment
+            ))
+        }
+        Err(e) => return Err(format!("{}: {e}", input.name)),
+    };
+    if stats.kept == stats.points {
+        return Ok((input, Some(stats)));
+    }
+    Ok((input.keep(&keep), Some(stats)))
+}
