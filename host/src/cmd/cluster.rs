@@ -2,9 +2,9 @@
 
 use crate::args::{arena_buffer, read_input, CleanArgs, ClusterArgs, InputArgs, MemoryArgs};
 use crate::clean::{clean_input, with_clean};
-use crate::cmd::{clean_json, clean_text, label_colour};
+use crate::cmd::{clean_json, clean_text};
 use crate::input::Prepared;
-use crate::io::{write_atomic, write_points_ply};
+use crate::io::{publish, write_atomic, write_points_ply};
 use crate::json;
 use crate::progress::StageClock;
 use clap::Args;
@@ -69,7 +69,7 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
         arena_bytes: bytes,
         output: &cmd.output,
     };
-    crate::cmd::publish(&report.text(), cmd.report.as_deref(), || report.json())?;
+    publish(&report.text(), cmd.report.as_deref(), || report.json()).map_err(|e| e.to_string())?;
     Ok(())
 }
 
@@ -86,6 +86,27 @@ fn write_clusters(path: &Path, input: &Prepared, out: &Clustered) -> Result<(), 
         write_points_ply(w, &pts, &colours, Some(("cluster", &ids)))
     })
     .map_err(|e| e.to_string())
+}
+
+/// A bright, deterministic colour for cluster `label`.
+fn label_colour(label: u32) -> [u8; 3] {
+    let mut z = (label as u64).wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    let h = (z >> 11) as f64 / (1u64 << 53) as f64 * 6.0;
+    let (s, v) = (0.65, 0.95);
+    let c = v * s;
+    let x = c * (1.0 - ((h % 2.0) - 1.0).abs());
+    let (r, g, b) = match h as u32 {
+        0 => (c, x, 0.0),
+        1 => (x, c, 0.0),
+        2 => (0.0, c, x),
+        3 => (0.0, x, c),
+        4 => (x, 0.0, c),
+        _ => (c, 0.0, x),
+    };
+    let m = v - c;
+    [r, g, b].map(|t| ((t + m) * 255.0).round() as u8)
 }
 
 struct Report<'r> {

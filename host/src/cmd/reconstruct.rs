@@ -4,7 +4,7 @@ use crate::args::{arena_buffer, read_input, CleanArgs, ClusterArgs, InputArgs, M
 use crate::clean::{clean_input, with_clean};
 use crate::cmd::{clean_json, clean_text};
 use crate::input::Prepared;
-use crate::io::{write_atomic, write_mesh, MeshFormat};
+use crate::io::{publish, write_atomic, write_mesh, MeshFormat};
 use crate::json;
 use crate::progress::StageClock;
 use clap::Args;
@@ -138,7 +138,7 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
         arena_bytes: bytes,
         output: &cmd.output,
     };
-    crate::cmd::publish(&report.text(), cmd.report.as_deref(), || report.json())
+    publish(&report.text(), cmd.report.as_deref(), || report.json()).map_err(|e| e.to_string())
 }
 
 fn write_output(
