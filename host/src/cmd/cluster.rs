@@ -155,7 +155,7 @@ impl Report<'_> {
             if c.converged { ", converged" } else { "" },
             c.max_error * 100.0,
             c.tolerance * 100.0,
-            self.clock.summary(),
+            self.clock.timings().summary(),
             s.peak_clustering,
             s.peak_clustering as f64 / n as f64,
             self.arena_bytes,
@@ -193,7 +193,7 @@ impl Report<'_> {
             .num("tolerance_relative", self.params.tolerance as f64)
             .num("tolerance_used_relative", c.tolerance as f64)
             .num("noise_floor_relative", c.noise as f64)
-            .raw("time_ms", &self.clock.json())
+            .raw("time_ms", &self.clock.timings().json())
             .num("arena_peak_bytes", s.peak_clustering as f64)
             .num("arena_reserved_bytes", self.arena_bytes as f64)
             .str("output", &self.output.display().to_string());

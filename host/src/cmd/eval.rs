@@ -121,10 +121,6 @@ pub fn text_report(e: &Evaluation, names: &(String, String), read_ms: f64, eval_
     )
 }
 
-fn nested(o: &json::Obj) -> String {
-    o.finish().replace('\n', "\n  ")
-}
-
 fn stats_json(e: &Evaluation, s: &Stats) -> String {
     let mut o = json::Obj::default();
     o.num("count", s.count as f64)
@@ -136,7 +132,7 @@ fn stats_json(e: &Evaluation, s: &Stats) -> String {
         .num("mean_relative", e.rel(s.mean))
         .num("rms_relative", e.rel(s.rms))
         .num("p99_relative", e.rel(s.p99));
-    nested(&o)
+    o.nested()
 }
 
 /// The JSON report: every number of [`Evaluation`], distances also relative.
@@ -177,15 +173,15 @@ pub fn json_report(e: &Evaluation, names: &(String, String), read_ms: f64, eval_
         .str("mesh_file", &names.1)
         .num("points", e.points as f64)
         .num("diagonal", e.diagonal)
-        .raw("point_to_mesh", &nested(&to_mesh))
+        .raw("point_to_mesh", &to_mesh.nested())
         .raw("mesh_to_points", &stats_json(e, &e.mesh_to_points))
         .num("chamfer", e.chamfer)
         .num("chamfer_relative", e.rel(e.chamfer))
         .num("hausdorff", e.hausdorff)
         .num("hausdorff_relative", e.rel(e.hausdorff))
         .num("signed_volume", e.signed_volume)
-        .raw("topology", &nested(&topo))
-        .raw("quality", &nested(&quality))
-        .raw("time_ms", &nested(&time));
+        .raw("topology", &topo.nested())
+        .raw("quality", &quality.nested())
+        .raw("time_ms", &time.nested());
     o.finish() + "\n"
 }

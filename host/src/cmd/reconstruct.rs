@@ -247,7 +247,7 @@ impl Report<'_> {
             mesh.holes_left,
             mesh.repairs,
             mesh.split_vertices,
-            self.clock.summary(),
+            self.clock.timings().summary(),
             m.peak,
             m.peak as f64 / n as f64,
             self.arena_bytes,
@@ -306,7 +306,7 @@ impl Report<'_> {
             .num("orientation_repairs", mesh.repairs as f64)
             .num("uncovered_clusters", mesh.uncovered_clusters as f64)
             .num("uncovered_points", mesh.uncovered_points as f64)
-            .raw("time_ms", &self.clock.json())
+            .raw("time_ms", &self.clock.timings().json())
             .num("arena_peak_bytes", m.peak as f64)
             .num("arena_reserved_bytes", self.arena_bytes as f64)
             .str("output", &self.output.display().to_string());
