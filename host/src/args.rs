@@ -6,7 +6,6 @@ use crate::progress::StageClock;
 use clap::Args;
 use std::mem::MaybeUninit;
 use std::path::PathBuf;
-use std::time::Instant;
 use vsaqem_core::sample::Shape;
 use vsaqem_core::Params;
 
@@ -42,17 +41,16 @@ fn parse_shape(s: &str) -> Result<Shape, String> {
 
 /// Read (or sample) and normalise, timing it.
 pub fn read_input(args: &InputArgs, clock: &mut StageClock) -> Result<Prepared, String> {
-    let t = Instant::now();
-    let (name, cloud) = input::load(
-        args.input.as_deref(),
-        args.sample,
-        args.points,
-        args.noise,
-        1,
-    )?;
-    let prepared = input::prepare(name, cloud);
-    clock.record("read", t.elapsed());
-    Ok(prepared)
+    clock.time("read", || {
+        let (name, cloud) = input::load(
+            args.input.as_deref(),
+            args.sample,
+            args.points,
+            args.noise,
+            1,
+        )?;
+        Ok(input::prepare(name, cloud))
+    })
 }
 
 /// The cleaning pre-pass (`vsaqem_core::clean`); defaults are

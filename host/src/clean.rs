@@ -1,16 +1,54 @@
 //! The cleaning pre-pass of `cluster` and `reconstruct`: the outlier and fragment
-//! filters of `vsaqem_core::clean`, then smoothing, each in a buffer of its own.
+//! filters of `vsaqem_core::clean`, then smoothing, each in a buffer of its own;
+//! and [`read_and_clean`], the start both commands share.
 
-use crate::args::arena_buffer;
+use crate::args::{arena_buffer, read_input, InputArgs, MemoryArgs};
 use crate::input::Prepared;
 use crate::progress::StageClock;
 use std::mem::MaybeUninit;
 use vsaqem_core::{Arena, CleanStats, Error, Params};
 
+/// The points of a run, read and cleaned, and the arena buffer core runs in.
+pub struct Cleaned {
+    /// The points after the pre-pass.
+    pub input: Prepared,
+    /// Points read, before cleaning.
+    pub points_read: usize,
+    /// What the cleaning filters did (`None`: both are off).
+    pub stats: Option<CleanStats>,
+    /// The arena buffer: the `--memory` budget, or what the run and the pre-pass
+    /// can need.
+    pub buf: Vec<MaybeUninit<u8>>,
+}
+
+/// Read the input, size the arena for a command that needs `run_bytes(points,
+/// params)` and for the pre-pass, checked against `--memory` before any work,
+/// then clean ([`clean_input`]).
+pub fn read_and_clean(
+    input: &InputArgs,
+    memory: &MemoryArgs,
+    params: &Params,
+    run_bytes: fn(usize, &Params) -> usize,
+    clock: &mut StageClock,
+) -> Result<Cleaned, String> {
+    let input = read_input(input, clock)?;
+    let points_read = input.points.len();
+    let needed = with_clean(run_bytes(points_read, params), points_read, params);
+    let mut buf = arena_buffer(memory.arena_size(needed, points_read)?);
+    let (input, stats) =
+        clean_input(input, params, &mut buf, clock).inspect_err(|_| clock.finish())?;
+    Ok(Cleaned {
+        input,
+        points_read,
+        stats,
+        buf,
+    })
+}
+
 /// The arena a run on `n` points needs when `run` bytes are enough for the
 /// command itself: also enough for the cleaning pre-pass when it is on (it runs
 /// first, in the same buffer).
-pub fn with_clean(run: usize, n: usize, params: &Params) -> usize {
+fn with_clean(run: usize, n: usize, params: &Params) -> usize {
     let run = run.max(vsaqem_core::smooth::smooth_bytes(n, params));
     if params.cleans() {
         run.max(vsaqem_core::clean_bytes(n, params))

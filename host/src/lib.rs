@@ -12,3 +12,4 @@ pub mod json;
 pub mod normalize;
 pub mod progress;
 pub mod render;
+pub mod report;

@@ -36,9 +36,13 @@ impl StageClock {
         }
     }
 
-    /// Add a host-side stage (reading, writing).
-    pub fn record(&mut self, name: &'static str, d: Duration) {
-        self.times.push((name, d));
+    /// Run `f` as the host-side stage `name` (reading, writing), recording its
+    /// duration.
+    pub fn time<T>(&mut self, name: &'static str, f: impl FnOnce() -> T) -> T {
+        let t = Instant::now();
+        let out = f();
+        self.times.push((name, t.elapsed()));
+        out
     }
 
     /// Time since the clock was made.

@@ -1,16 +1,15 @@
 //! `vsaqem cluster`: the input points coloured by cluster, plus the generators.
 
-use crate::args::{arena_buffer, read_input, CleanArgs, ClusterArgs, InputArgs, MemoryArgs};
-use crate::clean::{clean_input, with_clean};
-use crate::cmd::{clean_json, clean_text};
+use crate::args::{CleanArgs, ClusterArgs, InputArgs, MemoryArgs};
+use crate::clean::{read_and_clean, Cleaned};
 use crate::input::Prepared;
 use crate::io::{publish, write_atomic, write_points_ply};
 use crate::json;
 use crate::progress::StageClock;
+use crate::report::{error_json, InputReport, RunReport};
 use clap::Args;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
-use vsaqem_core::{CleanStats, Clustered, Params};
+use vsaqem_core::{ClusterStats, Clustered};
 
 /// `vsaqem cluster`.
 #[derive(Args, Debug)]
@@ -38,14 +37,20 @@ pub struct Cmd {
 /// Run the command.
 pub fn run(cmd: &Cmd) -> Result<(), String> {
     let mut clock = StageClock::new(!cmd.quiet);
-    let input = read_input(&cmd.input, &mut clock)?;
     let params = cmd.clean.apply(cmd.cluster.params());
-    let read = input.points.len();
-    let needed = with_clean(vsaqem_core::cluster_bytes(read, &params), read, &params);
-    let bytes = cmd.memory.arena_size(needed, read)?;
-    let mut buf = arena_buffer(bytes);
-    let (input, clean) =
-        clean_input(input, &params, &mut buf, &mut clock).inspect_err(|_| clock.finish())?;
+    let Cleaned {
+        input,
+        points_read,
+        stats,
+        mut buf,
+    } = read_and_clean(
+        &cmd.input,
+        &cmd.memory,
+        &params,
+        vsaqem_core::cluster_bytes,
+        &mut clock,
+    )?;
+    let arena_reserved = buf.len();
     let arena = vsaqem_core::Arena::new(&mut buf);
     let out = vsaqem_core::cluster(
         &arena,
@@ -56,21 +61,22 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
     );
     clock.finish();
     let out = out.map_err(|e| format!("{}: {e}", input.name))?;
-    let t = Instant::now();
-    write_clusters(&cmd.output, &input, &out)?;
-    clock.record("write", t.elapsed());
-    let report = Report {
-        input: &input,
-        read,
-        clean: clean.as_ref(),
-        out: &out,
-        params: &params,
-        clock: &clock,
-        arena_bytes: bytes,
-        output: &cmd.output,
+    clock.time("write", || write_clusters(&cmd.output, &input, &out))?;
+    let diag = out.bounds.diag;
+    let report = ClusterReport {
+        input: InputReport::new(&input, points_read, stats.as_ref(), &params, diag),
+        k: out.stats.k,
+        spacing_relative: out.stats.spacing as f64 / diag as f64,
+        cluster: out.stats.cluster,
+        tolerance: params.tolerance,
+        run: RunReport::new(
+            &clock,
+            out.stats.peak_clustering,
+            arena_reserved,
+            &cmd.output,
+        ),
     };
-    publish(&report.text(), cmd.report.as_deref(), || report.json()).map_err(|e| e.to_string())?;
-    Ok(())
+    publish(&report.text(), cmd.report.as_deref(), || report.json()).map_err(|e| e.to_string())
 }
 
 fn write_clusters(path: &Path, input: &Prepared, out: &Clustered) -> Result<(), String> {
@@ -109,43 +115,36 @@ fn label_colour(label: u32) -> [u8; 3] {
     [r, g, b].map(|t| ((t + m) * 255.0).round() as u8)
 }
 
-struct Report<'r> {
-    input: &'r Prepared,
-    /// Points read, before cleaning.
-    read: usize,
-    clean: Option<&'r CleanStats>,
-    out: &'r Clustered<'r>,
-    params: &'r Params,
-    clock: &'r StageClock,
-    arena_bytes: usize,
-    output: &'r Path,
+/// The report of a run, filled once from its results: the text and the JSON read
+/// only this.
+struct ClusterReport {
+    input: InputReport,
+    /// Neighbours per point.
+    k: u32,
+    /// Average spacing (mean distance to the `k` nearest), relative to the diagonal.
+    spacing_relative: f64,
+    cluster: ClusterStats,
+    /// `--tolerance`, as given (`cluster.tolerance` is the one used).
+    tolerance: f32,
+    run: RunReport,
 }
 
-impl Report<'_> {
+impl ClusterReport {
     fn text(&self) -> String {
-        let s = &self.out.stats;
-        let c = &s.cluster;
-        let n = self.input.points.len();
-        let diag = self.out.bounds.diag as f64 * self.input.frame.scale;
-        let normals = if self.input.normals.is_some() {
-            "normals given"
-        } else {
-            "normals by PCA"
-        };
+        let c = &self.cluster;
+        let output = format!(
+            ": {} points coloured by cluster + {} generators (black)",
+            self.input.points, c.clusters
+        );
         format!(
-            "input      {}: {} points, {normals}, bounding-box diagonal {diag:.6}\n\
-             clean      {}\n\
+            "{}\
              neighbours k = {}, average spacing {:.3}% of the diagonal\n\
              clusters   {} ({} initial, +{} by splitting in {} batches, {} batches undone), {} passes{}\n\
              max error  {:.3}% of the diagonal (tolerance {:.3}%)\n\
-             time       {}\n\
-             memory     arena peak {} bytes ({:.1} bytes/point), {} reserved\n\
-             output     {}: {n} points coloured by cluster + {} generators (black)\n",
-            self.input.name,
-            self.read,
-            clean_text(self.clean, self.params),
-            s.k,
-            s.spacing as f64 / self.out.bounds.diag as f64 * 100.0,
+             {}",
+            self.input.text(),
+            self.k,
+            self.spacing_relative * 100.0,
             c.clusters,
             c.initial_clusters,
             c.splits,
@@ -155,32 +154,16 @@ impl Report<'_> {
             if c.converged { ", converged" } else { "" },
             c.max_error * 100.0,
             c.tolerance * 100.0,
-            self.clock.timings().summary(),
-            s.peak_clustering,
-            s.peak_clustering as f64 / n as f64,
-            self.arena_bytes,
-            self.output.display(),
-            c.clusters,
+            self.run.text(self.input.points, &output),
         )
     }
 
     fn json(&self) -> String {
-        let s = &self.out.stats;
-        let c = &s.cluster;
+        let c = &self.cluster;
         let mut o = json::Obj::default();
-        o.str("input", &self.input.name)
-            .num("points", self.input.points.len() as f64)
-            .bool("normals_given", self.input.normals.is_some())
-            .num(
-                "diagonal",
-                self.out.bounds.diag as f64 * self.input.frame.scale,
-            );
-        clean_json(&mut o, self.clean, self.read, self.params);
-        o.num("k", s.k as f64)
-            .num(
-                "spacing_relative",
-                s.spacing as f64 / self.out.bounds.diag as f64,
-            )
+        self.input.json(&mut o);
+        o.num("k", self.k as f64)
+            .num("spacing_relative", self.spacing_relative)
             .num("components", c.components as f64)
             .num("initial_clusters", c.initial_clusters as f64)
             .num("clusters", c.clusters as f64)
@@ -188,15 +171,9 @@ impl Report<'_> {
             .num("split_batches", c.split_rounds as f64)
             .num("split_batches_undone", c.rejected_batches as f64)
             .num("splits", c.splits as f64)
-            .bool("converged", c.converged)
-            .num("max_error_relative", c.max_error as f64)
-            .num("tolerance_relative", self.params.tolerance as f64)
-            .num("tolerance_used_relative", c.tolerance as f64)
-            .num("noise_floor_relative", c.noise as f64)
-            .raw("time_ms", &self.clock.timings().json())
-            .num("arena_peak_bytes", s.peak_clustering as f64)
-            .num("arena_reserved_bytes", self.arena_bytes as f64)
-            .str("output", &self.output.display().to_string());
+            .bool("converged", c.converged);
+        error_json(&mut o, c, self.tolerance);
+        self.run.json(&mut o);
         o.finish() + "\n"
     }
 }
