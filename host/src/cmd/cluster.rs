@@ -52,15 +52,9 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
     )?;
     let arena_reserved = buf.len();
     let arena = vsaqem_core::Arena::new(&mut buf);
-    let out = vsaqem_core::cluster(
-        &arena,
-        &input.points,
-        input.normals.as_deref(),
-        &params,
-        &mut clock,
-    );
-    clock.finish();
-    let out = out.map_err(|e| format!("{}: {e}", input.name))?;
+    let out = input
+        .run_core(vsaqem_core::cluster, &arena, &params, &mut clock)
+        .map_err(|e| format!("{}: {e}", input.name))?;
     clock.time("write", || write_clusters(&cmd.output, &input, &out))?;
     let diag = out.bounds.diag;
     let report = ClusterReport {

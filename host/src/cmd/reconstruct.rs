@@ -114,14 +114,7 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
     )?;
     let arena_reserved = buf.len();
     let arena = vsaqem_core::Arena::new(&mut buf);
-    let out = vsaqem_core::reconstruct(
-        &arena,
-        &input.points,
-        input.normals.as_deref(),
-        &params,
-        &mut clock,
-    );
-    clock.finish();
+    let out = input.run_core(vsaqem_core::reconstruct, &arena, &params, &mut clock);
     let out = out.map_err(|e| match e {
         Error::MeshCapacity { .. } => format!(
             "{}: {e} (--mesh-bytes-per-cluster, now {})",
