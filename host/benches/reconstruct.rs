@@ -8,9 +8,10 @@
 //! core) and arena peak. Runs as the CLI does at its defaults: the cleaning
 //! pre-pass, then reconstruct. Skipped with a message when the data is absent.
 
-use std::path::Path;
-use std::time::Duration;
-use vsaqem::cmd::{arena_buffer, clean_input};
+mod common;
+
+use vsaqem::args::arena_buffer;
+use vsaqem::clean::clean_input;
 use vsaqem::input::prepare;
 use vsaqem::io::read_cloud;
 use vsaqem::progress::StageClock;
@@ -24,19 +25,9 @@ fn main() {
     if counts.is_empty() {
         counts = vec![250, 500, 1000, 2000];
     }
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../shared/data/clouds");
-    let Ok(entries) = std::fs::read_dir(&dir) else {
-        println!(
-            "skipped: {} not found (the shared data sits beside the repository)",
-            dir.display()
-        );
+    let Some(files) = common::shared_clouds() else {
         return;
     };
-    let mut files: Vec<_> = entries
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|x| x == "ply"))
-        .collect();
-    files.sort();
     println!("reconstruction, 5 iterations, defaults otherwise; times: best of 3 runs, one core\n");
     println!("| model | clusters (asked → after splitting) | vertices | faces | boundary edges | open loops | components | holes closed | points > 1 % | solver | nodes | neighbours ms | quadrics ms | clustering ms | candidates ms | scoring ms | selection ms | output ms | total ms | arena peak B |");
     println!(
@@ -63,31 +54,20 @@ fn main() {
                 clusters,
                 ..Params::default()
             };
-            let mut best: Option<(Duration, Vec<(&'static str, Duration)>)> = None;
+            let mut best = common::Fastest::default();
             let mut last = None;
             for _ in 0..3 {
                 let mut buf = arena_buffer(arena_bytes(input.points.len(), &params));
                 let arena = Arena::new(&mut buf);
                 let mut clock = StageClock::new(false);
-                let out = reconstruct(
-                    &arena,
-                    &input.points,
-                    input.normals.as_deref(),
-                    &params,
-                    &mut clock,
-                );
-                clock.finish();
-                let out = match out {
+                let out = match input.run_core(reconstruct, &arena, &params, &mut clock) {
                     Ok(o) => o,
                     Err(e) => {
                         println!("| {name} | {clusters} | failed: {e} |");
                         break;
                     }
                 };
-                let total: Duration = clock.times.iter().map(|(_, d)| *d).sum();
-                if best.as_ref().is_none_or(|(t, _)| total < *t) {
-                    best = Some((total, clock.times.clone()));
-                }
+                best.offer(&clock);
                 // Coverage of every point read, in file coordinates.
                 let v: Vec<[f64; 3]> = out
                     .mesh
@@ -100,15 +80,8 @@ fn main() {
                     .far;
                 last = Some((out.meshing, out.clustered.stats.cluster.clusters, far));
             }
-            let (Some((total, times)), Some((m, cl, far))) = (best, last) else {
+            let (Some(total), Some((m, cl, far))) = (best.total_ms(), last) else {
                 continue;
-            };
-            let get = |ks: &[&str]| {
-                times
-                    .iter()
-                    .filter(|(n, _)| ks.contains(n))
-                    .map(|(_, d)| d.as_secs_f64() * 1e3)
-                    .sum::<f64>()
             };
             let solver = if m.selection.optimal {
                 "optimal".to_string()
@@ -125,14 +98,14 @@ fn main() {
                 m.mesh.holes_filled,
                 100.0 * far as f64 / all.len() as f64,
                 m.selection.nodes,
-                get(&["neighbours"]),
-                get(&["quadrics"]),
-                get(&["validate", "clustering"]),
-                get(&["candidates"]),
-                get(&["scoring"]),
-                get(&["selection"]),
-                get(&["output"]),
-                total.as_secs_f64() * 1e3,
+                best.ms(&["neighbours"]),
+                best.ms(&["quadrics"]),
+                best.ms(&["validate", "clustering"]),
+                best.ms(&["candidates"]),
+                best.ms(&["scoring"]),
+                best.ms(&["selection"]),
+                best.ms(&["output"]),
+                total,
                 m.peak
             );
         }

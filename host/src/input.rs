@@ -2,9 +2,16 @@
 
 use crate::io::{read_cloud, Cloud};
 use crate::normalize::Frame;
+use crate::progress::StageClock;
 use std::path::Path;
 use vsaqem_core::rng::Rng;
 use vsaqem_core::sample::{fill, gaussian, Shape};
+use vsaqem_core::{Arena, Params, Progress, V3};
+
+/// A core entry point (`vsaqem_core::cluster`, `vsaqem_core::reconstruct`) whose
+/// results borrow an arena of lifetime `'a`.
+pub type CoreRun<'a, 'buf, T> =
+    fn(&'a Arena<'buf>, &[V3], Option<&[V3]>, &Params, &mut dyn Progress) -> vsaqem_core::Result<T>;
 
 /// Points ready for core, with the frame that maps results back.
 pub struct Prepared {
@@ -96,6 +103,20 @@ pub fn shape_name(s: Shape) -> &'static str {
 }
 
 impl Prepared {
+    /// Run `core` on these points (and normals) in `arena`, its stages timed by
+    /// `clock`, then close the clock's last stage ([`StageClock::finish`]).
+    pub fn run_core<'a, 'buf, T>(
+        &self,
+        core: CoreRun<'a, 'buf, T>,
+        arena: &'a Arena<'buf>,
+        params: &Params,
+        clock: &mut StageClock,
+    ) -> vsaqem_core::Result<T> {
+        let out = core(arena, &self.points, self.normals.as_deref(), params, clock);
+        clock.finish();
+        out
+    }
+
     /// Only the points with `keep[i]` (and their normals), normalised again: the
     /// frame is fitted to what is left, so core's coordinates span `[-1, 1]` for
     /// the cleaned cloud, as they would had it been read that way.

@@ -52,6 +52,12 @@ impl Obj {
     pub fn finish(&self) -> String {
         format!("{{{}\n}}", self.body)
     }
+
+    /// The object as text indented one level: a value for [`Obj::raw`] of the
+    /// object that holds it.
+    pub fn nested(&self) -> String {
+        self.finish().replace('\n', "\n  ")
+    }
 }
 
 /// A JSON string literal.

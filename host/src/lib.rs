@@ -1,6 +1,8 @@
 //! The std front end of vsaqem: file formats, normalisation, arena sizing, reports.
 //! No algorithm lives here; see `vsaqem-core`.
 
+pub mod args;
+pub mod clean;
 pub mod cmd;
 pub mod eval;
 pub mod geom;
@@ -10,3 +12,4 @@ pub mod json;
 pub mod normalize;
 pub mod progress;
 pub mod render;
+pub mod report;

@@ -36,9 +36,13 @@ impl StageClock {
         }
     }
 
-    /// Add a host-side stage (reading, writing).
-    pub fn record(&mut self, name: &'static str, d: Duration) {
-        self.times.push((name, d));
+    /// Run `f` as the host-side stage `name` (reading, writing), recording its
+    /// duration.
+    pub fn time<T>(&mut self, name: &'static str, f: impl FnOnce() -> T) -> T {
+        let t = Instant::now();
+        let out = f();
+        self.times.push((name, t.elapsed()));
+        out
     }
 
     /// Time since the clock was made.
@@ -68,25 +72,12 @@ impl StageClock {
         out
     }
 
-    /// `"read 1.2 ms, neighbours 30.4 ms, ..., total 95.0 ms"`.
-    pub fn summary(&self) -> String {
-        let mut parts: Vec<String> = self
-            .stages()
-            .iter()
-            .map(|(k, d)| format!("{k} {:.1} ms", ms(*d)))
-            .collect();
-        parts.push(format!("total {:.1} ms", ms(self.total())));
-        parts.join(", ")
-    }
-
-    /// The stage times in milliseconds as a JSON object, with `total`.
-    pub fn json(&self) -> String {
-        let mut o = crate::json::Obj::default();
-        for (k, d) in &self.stages() {
-            o.num(k, ms(*d));
+    /// The stage times and the total so far, taken once for the reports.
+    pub fn timings(&self) -> Timings {
+        Timings {
+            stages: self.stages(),
+            total: self.total(),
         }
-        o.num("total", ms(self.total()));
-        o.finish().replace('\n', "\n  ")
     }
 
     fn draw(&mut self, stage: Stage, done: u64, total: u64) {
@@ -130,6 +121,39 @@ impl Progress for StageClock {
             self.draw(stage, done, total);
         }
         Flow::Continue
+    }
+}
+
+/// The stage times of a run, taken once ([`StageClock::timings`]), so the text and
+/// the JSON report of the run show the same numbers.
+#[derive(Clone, Debug)]
+pub struct Timings {
+    /// Time per stage name, in order of first appearance ([`StageClock::stages`]).
+    pub stages: Vec<(&'static str, Duration)>,
+    /// Time from the clock's start to when the timings were taken.
+    pub total: Duration,
+}
+
+impl Timings {
+    /// `"read 1.2 ms, neighbours 30.4 ms, ..., total 95.0 ms"`.
+    pub fn summary(&self) -> String {
+        let mut parts: Vec<String> = self
+            .stages
+            .iter()
+            .map(|(k, d)| format!("{k} {:.1} ms", ms(*d)))
+            .collect();
+        parts.push(format!("total {:.1} ms", ms(self.total)));
+        parts.join(", ")
+    }
+
+    /// The stage times in milliseconds as a nested JSON object, with `total`.
+    pub fn json(&self) -> String {
+        let mut o = crate::json::Obj::default();
+        for (k, d) in &self.stages {
+            o.num(k, ms(*d));
+        }
+        o.num("total", ms(self.total));
+        o.nested()
     }
 }
 

@@ -3,6 +3,7 @@
 use crate::eval::{evaluate, Evaluation, Stats, DEFAULT_SAMPLES, FAR_FRACTION};
 use crate::io::{read_cloud, read_mesh};
 use crate::json;
+use crate::progress::ms;
 use clap::Args;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -34,24 +35,37 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
             vertices.len()
         ));
     }
-    let read_ms = ms(t);
+    let read_ms = ms(t.elapsed());
     let t = Instant::now();
-    let e = evaluate(&cloud.positions, &vertices, &triangles, cmd.samples);
-    let eval_ms = ms(t);
-    let names = (
-        cmd.points.display().to_string(),
-        cmd.mesh.display().to_string(),
-    );
+    let evaluation = evaluate(&cloud.positions, &vertices, &triangles, cmd.samples);
+    let eval_ms = ms(t.elapsed());
+    let report = EvalReport {
+        points_file: cmd.points.display().to_string(),
+        mesh_file: cmd.mesh.display().to_string(),
+        evaluation,
+        read_ms,
+        eval_ms,
+    };
     if cmd.json {
-        print!("{}", json_report(&e, &names, read_ms, eval_ms));
+        print!("{}", report.json());
     } else {
-        print!("{}", text_report(&e, &names, read_ms, eval_ms));
+        print!("{}", report.text());
     }
     Ok(())
 }
 
-fn ms(t: Instant) -> f64 {
-    t.elapsed().as_secs_f64() * 1e3
+/// The report of a run, filled once: the text and the JSON read only this.
+pub struct EvalReport {
+    /// The point cloud, as named on the command line.
+    pub points_file: String,
+    /// The mesh, as named on the command line.
+    pub mesh_file: String,
+    /// What was measured.
+    pub evaluation: Evaluation,
+    /// Time to read both files, in milliseconds.
+    pub read_ms: f64,
+    /// Time to evaluate, in milliseconds.
+    pub eval_ms: f64,
 }
 
 /// `d` as "0.123% (1.234e-4)": percent of the diagonal, then file units.
@@ -59,70 +73,122 @@ fn dist(e: &Evaluation, d: f64) -> String {
     format!("{:.4}% ({d:.4e})", 100.0 * e.rel(d))
 }
 
-/// The text report: one line per group.
-pub fn text_report(e: &Evaluation, names: &(String, String), read_ms: f64, eval_ms: f64) -> String {
-    let t = &e.topology;
-    let p = &e.point_to_mesh.stats;
-    let m = &e.mesh_to_points;
-    let q = &e.quality;
-    let yes = |b: bool| if b { "yes" } else { "no" };
-    format!(
-        "input         {}: {} points, bounding-box diagonal {:.6}; {}: {} vertices, {} faces\n\
-         points->mesh  max {}, mean {}, rms {}, p99 {}; {} points farther than {}% of the diagonal\n\
-         mesh->points  {} samples: max {}, mean {}\n\
-         chamfer       {}, hausdorff {}\n\
-         topology      V {} (+{} unreferenced), E {}, F {}, Euler {}, components {}, boundary edges {}, \
-         non-manifold edges {}, non-manifold vertices {}, inconsistent edges {}, degenerate faces {}, \
-         duplicate faces {}, invalid faces {}; closed manifold: {}\n\
-         volume        {:.6e} (signed: {})\n\
-         min angle     min {:.2}°, p1 {:.2}°, p5 {:.2}°, median {:.2}°\n\
-         time          read {read_ms:.1} ms, evaluate {eval_ms:.1} ms\n",
-        names.0,
-        e.points,
-        e.diagonal,
-        names.1,
-        t.vertices,
-        t.faces,
-        dist(e, p.max),
-        dist(e, p.mean),
-        dist(e, p.rms),
-        dist(e, p.p99),
-        e.point_to_mesh.far,
-        FAR_FRACTION * 100.0,
-        m.count,
-        dist(e, m.max),
-        dist(e, m.mean),
-        dist(e, e.chamfer),
-        dist(e, e.hausdorff),
-        t.referenced_vertices,
-        t.unreferenced_vertices,
-        t.edges,
-        t.faces - t.invalid_faces,
-        t.euler,
-        t.components,
-        t.boundary_edges,
-        t.non_manifold_edges,
-        t.non_manifold_vertices,
-        t.inconsistent_edges,
-        t.degenerate_faces,
-        t.duplicate_faces,
-        t.invalid_faces,
-        yes(t.is_closed_manifold()),
-        e.signed_volume,
-        if e.signed_volume >= 0.0 {
-            "faces point outwards if closed"
-        } else {
-            "faces point inwards if closed"
-        },
-        q.min,
-        q.p1,
-        q.p5,
-        q.p50,
-    )
-}
+impl EvalReport {
+    /// The text report: one line per group.
+    pub fn text(&self) -> String {
+        let e = &self.evaluation;
+        let (read_ms, eval_ms) = (self.read_ms, self.eval_ms);
+        let t = &e.topology;
+        let p = &e.point_to_mesh.stats;
+        let m = &e.mesh_to_points;
+        let q = &e.quality;
+        let yes = |b: bool| if b { "yes" } else { "no" };
+        format!(
+            "input         {}: {} points, bounding-box diagonal {:.6}; {}: {} vertices, {} faces\n\
+             points->mesh  max {}, mean {}, rms {}, p99 {}; {} points farther than {}% of the diagonal\n\
+             mesh->points  {} samples: max {}, mean {}\n\
+             chamfer       {}, hausdorff {}\n\
+             topology      V {} (+{} unreferenced), E {}, F {}, Euler {}, components {}, boundary edges {}, \
+             non-manifold edges {}, non-manifold vertices {}, inconsistent edges {}, degenerate faces {}, \
+             duplicate faces {}, invalid faces {}; closed manifold: {}\n\
+             volume        {:.6e} (signed: {})\n\
+             min angle     min {:.2}°, p1 {:.2}°, p5 {:.2}°, median {:.2}°\n\
+             time          read {read_ms:.1} ms, evaluate {eval_ms:.1} ms\n",
+            self.points_file,
+            e.points,
+            e.diagonal,
+            self.mesh_file,
+            t.vertices,
+            t.faces,
+            dist(e, p.max),
+            dist(e, p.mean),
+            dist(e, p.rms),
+            dist(e, p.p99),
+            e.point_to_mesh.far,
+            FAR_FRACTION * 100.0,
+            m.count,
+            dist(e, m.max),
+            dist(e, m.mean),
+            dist(e, e.chamfer),
+            dist(e, e.hausdorff),
+            t.referenced_vertices,
+            t.unreferenced_vertices,
+            t.edges,
+            t.faces - t.invalid_faces,
+            t.euler,
+            t.components,
+            t.boundary_edges,
+            t.non_manifold_edges,
+            t.non_manifold_vertices,
+            t.inconsistent_edges,
+            t.degenerate_faces,
+            t.duplicate_faces,
+            t.invalid_faces,
+            yes(t.is_closed_manifold()),
+            e.signed_volume,
+            if e.signed_volume >= 0.0 {
+                "faces point outwards if closed"
+            } else {
+                "faces point inwards if closed"
+            },
+            q.min,
+            q.p1,
+            q.p5,
+            q.p50,
+        )
+    }
 
-fn nested(o: &json::Obj) -> String {
-    o.finish().replace('\n', "\n  ")
+    /// The JSON report: every number of [`Evaluation`], distances also relative.
+    pub fn json(&self) -> String {
+        let e = &self.evaluation;
+        let mut to_mesh = json::Obj::default();
+        to_mesh
+            .raw("distance", &stats_json(e, &e.point_to_mesh.stats))
+            .num("far", e.point_to_mesh.far as f64)
+            .num("far_threshold_relative", FAR_FRACTION);
+        let t = &e.topology;
+        let mut topo = json::Obj::default();
+        topo.num("vertices", t.vertices as f64)
+            .num("faces", t.faces as f64)
+            .num("invalid_faces", t.invalid_faces as f64)
+            .num("referenced_vertices", t.referenced_vertices as f64)
+            .num("unreferenced_vertices", t.unreferenced_vertices as f64)
+            .num("edges", t.edges as f64)
+            .num("boundary_edges", t.boundary_edges as f64)
+            .num("non_manifold_edges", t.non_manifold_edges as f64)
+            .num("non_manifold_vertices", t.non_manifold_vertices as f64)
+            .num("components", t.components as f64)
+            .num("inconsistent_edges", t.inconsistent_edges as f64)
+            .num("euler", t.euler as f64)
+            .num("degenerate_faces", t.degenerate_faces as f64)
+            .num("duplicate_faces", t.duplicate_faces as f64)
+            .bool("closed_manifold", t.is_closed_manifold());
+        let q = &e.quality;
+        let mut quality = json::Obj::default();
+        quality
+            .num("min_angle_min", q.min)
+            .num("min_angle_p1", q.p1)
+            .num("min_angle_p5", q.p5)
+            .num("min_angle_p50", q.p50);
+        let mut time = json::Obj::default();
+        time.num("read", self.read_ms).num("evaluate", self.eval_ms);
+        let mut o = json::Obj::default();
+        o.str("points_file", &self.points_file)
+            .str("mesh_file", &self.mesh_file)
+            .num("points", e.points as f64)
+            .num("diagonal", e.diagonal)
+            .raw("point_to_mesh", &to_mesh.nested())
+            .raw("mesh_to_points", &stats_json(e, &e.mesh_to_points))
+            .num("chamfer", e.chamfer)
+            .num("chamfer_relative", e.rel(e.chamfer))
+            .num("hausdorff", e.hausdorff)
+            .num("hausdorff_relative", e.rel(e.hausdorff))
+            .num("signed_volume", e.signed_volume)
+            .raw("topology", &topo.nested())
+            .raw("quality", &quality.nested())
+            .raw("time_ms", &time.nested());
+        o.finish() + "\n"
+    }
 }
 
 fn stats_json(e: &Evaluation, s: &Stats) -> String {
@@ -136,56 +202,5 @@ fn stats_json(e: &Evaluation, s: &Stats) -> String {
         .num("mean_relative", e.rel(s.mean))
         .num("rms_relative", e.rel(s.rms))
         .num("p99_relative", e.rel(s.p99));
-    nested(&o)
-}
-
-/// The JSON report: every number of [`Evaluation`], distances also relative.
-pub fn json_report(e: &Evaluation, names: &(String, String), read_ms: f64, eval_ms: f64) -> String {
-    let mut to_mesh = json::Obj::default();
-    to_mesh
-        .raw("distance", &stats_json(e, &e.point_to_mesh.stats))
-        .num("far", e.point_to_mesh.far as f64)
-        .num("far_threshold_relative", FAR_FRACTION);
-    let t = &e.topology;
-    let mut topo = json::Obj::default();
-    topo.num("vertices", t.vertices as f64)
-        .num("faces", t.faces as f64)
-        .num("invalid_faces", t.invalid_faces as f64)
-        .num("referenced_vertices", t.referenced_vertices as f64)
-        .num("unreferenced_vertices", t.unreferenced_vertices as f64)
-        .num("edges", t.edges as f64)
-        .num("boundary_edges", t.boundary_edges as f64)
-        .num("non_manifold_edges", t.non_manifold_edges as f64)
-        .num("non_manifold_vertices", t.non_manifold_vertices as f64)
-        .num("components", t.components as f64)
-        .num("inconsistent_edges", t.inconsistent_edges as f64)
-        .num("euler", t.euler as f64)
-        .num("degenerate_faces", t.degenerate_faces as f64)
-        .num("duplicate_faces", t.duplicate_faces as f64)
-        .bool("closed_manifold", t.is_closed_manifold());
-    let q = &e.quality;
-    let mut quality = json::Obj::default();
-    quality
-        .num("min_angle_min", q.min)
-        .num("min_angle_p1", q.p1)
-        .num("min_angle_p5", q.p5)
-        .num("min_angle_p50", q.p50);
-    let mut time = json::Obj::default();
-    time.num("read", read_ms).num("evaluate", eval_ms);
-    let mut o = json::Obj::default();
-    o.str("points_file", &names.0)
-        .str("mesh_file", &names.1)
-        .num("points", e.points as f64)
-        .num("diagonal", e.diagonal)
-        .raw("point_to_mesh", &nested(&to_mesh))
-        .raw("mesh_to_points", &stats_json(e, &e.mesh_to_points))
-        .num("chamfer", e.chamfer)
-        .num("chamfer_relative", e.rel(e.chamfer))
-        .num("hausdorff", e.hausdorff)
-        .num("hausdorff_relative", e.rel(e.hausdorff))
-        .num("signed_volume", e.signed_volume)
-        .raw("topology", &nested(&topo))
-        .raw("quality", &nested(&quality))
-        .raw("time_ms", &nested(&time));
-    o.finish() + "\n"
+    o.nested()
 }

@@ -1,15 +1,15 @@
 //! `vsaqem reconstruct`: point cloud to mesh (PLY, OBJ or OFF by extension).
 
-use crate::cmd::cluster::{read_input, CleanArgs, ClusterArgs, InputArgs};
-use crate::cmd::{arena_buffer, clean_input, clean_json, clean_text, with_clean, MemoryArgs};
+use crate::args::{CleanArgs, ClusterArgs, InputArgs, MemoryArgs};
+use crate::clean::{read_and_clean, Cleaned};
 use crate::input::Prepared;
-use crate::io::{write_atomic, write_mesh, MeshFormat};
+use crate::io::{publish, write_atomic, write_mesh, MeshFormat};
 use crate::json;
 use crate::progress::StageClock;
+use crate::report::{error_json, InputReport, RunReport};
 use clap::Args;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
-use vsaqem_core::{CleanStats, Error, Params, Reconstruction};
+use vsaqem_core::{ClusterStats, Error, MeshingStats, Params, Reconstruction};
 
 /// Meshing parameters; defaults are `vsaqem_core::Params::default()`.
 #[derive(Args, Debug, Clone)]
@@ -99,23 +99,22 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
     let format =
         MeshFormat::from_path(&cmd.output).map_err(|e| format!("{}: {e}", cmd.output.display()))?;
     let mut clock = StageClock::new(!cmd.quiet);
-    let input = read_input(&cmd.input, &mut clock)?;
     let params = cmd.params();
-    let read = input.points.len();
-    let needed = with_clean(vsaqem_core::arena_bytes(read, &params), read, &params);
-    let bytes = cmd.memory.arena_size(needed, read)?;
-    let mut buf = arena_buffer(bytes);
-    let (input, clean) =
-        clean_input(input, &params, &mut buf, &mut clock).inspect_err(|_| clock.finish())?;
-    let arena = vsaqem_core::Arena::new(&mut buf);
-    let out = vsaqem_core::reconstruct(
-        &arena,
-        &input.points,
-        input.normals.as_deref(),
+    let Cleaned {
+        input,
+        points_read,
+        stats,
+        mut buf,
+    } = read_and_clean(
+        &cmd.input,
+        &cmd.memory,
         &params,
+        vsaqem_core::arena_bytes,
         &mut clock,
-    );
-    clock.finish();
+    )?;
+    let arena_reserved = buf.len();
+    let arena = vsaqem_core::Arena::new(&mut buf);
+    let out = input.run_core(vsaqem_core::reconstruct, &arena, &params, &mut clock);
     let out = out.map_err(|e| match e {
         Error::MeshCapacity { .. } => format!(
             "{}: {e} (--mesh-bytes-per-cluster, now {})",
@@ -124,20 +123,16 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
         ),
         e => format!("{}: {e}", input.name),
     })?;
-    let t = Instant::now();
-    write_output(&cmd.output, format, &input, &out)?;
-    clock.record("write", t.elapsed());
-    let report = Report {
-        input: &input,
-        read,
-        clean: clean.as_ref(),
-        out: &out,
-        params: &params,
-        clock: &clock,
-        arena_bytes: bytes,
-        output: &cmd.output,
+    clock.time("write", || write_output(&cmd.output, format, &input, &out))?;
+    let diag = out.clustered.bounds.diag;
+    let report = ReconstructReport {
+        input: InputReport::new(&input, points_read, stats.as_ref(), &params, diag),
+        cluster: out.clustered.stats.cluster,
+        tolerance: params.tolerance,
+        meshing: out.meshing,
+        run: RunReport::new(&clock, out.meshing.peak, arena_reserved, &cmd.output),
     };
-    crate::cmd::publish(&report.text(), cmd.report.as_deref(), || report.json())
+    publish(&report.text(), cmd.report.as_deref(), || report.json()).map_err(|e| e.to_string())
 }
 
 fn write_output(
@@ -158,32 +153,23 @@ fn write_output(
     .map_err(|e| e.to_string())
 }
 
-struct Report<'r> {
-    input: &'r Prepared,
-    /// Points read, before cleaning.
-    read: usize,
-    clean: Option<&'r CleanStats>,
-    out: &'r Reconstruction<'r>,
-    params: &'r Params,
-    clock: &'r StageClock,
-    arena_bytes: usize,
-    output: &'r Path,
+/// The report of a run, filled once from its results: the text and the JSON read
+/// only this.
+struct ReconstructReport {
+    input: InputReport,
+    cluster: ClusterStats,
+    /// `--tolerance`, as given (`cluster.tolerance` is the one used).
+    tolerance: f32,
+    meshing: MeshingStats,
+    run: RunReport,
 }
 
-impl Report<'_> {
+impl ReconstructReport {
     fn text(&self) -> String {
-        let c = &self.out.clustered.stats;
-        let cl = &c.cluster;
-        let m = &self.out.meshing;
+        let cl = &self.cluster;
+        let m = &self.meshing;
         let sel = &m.selection;
         let mesh = &m.mesh;
-        let n = self.input.points.len();
-        let diag = self.out.clustered.bounds.diag as f64 * self.input.frame.scale;
-        let normals = if self.input.normals.is_some() {
-            "normals given"
-        } else {
-            "normals by PCA"
-        };
         let solver = if sel.optimal {
             format!("optimal ({} nodes)", sel.nodes)
         } else {
@@ -207,20 +193,15 @@ impl Report<'_> {
             )
         };
         format!(
-            "input      {}: {} points, {normals}, bounding-box diagonal {diag:.6}\n\
-             clean      {}\n\
+            "{}\
              clusters   {} ({} initial, +{} by splitting, +{} by refinement in {} rounds), max error {:.3}% of the diagonal\n\
              candidates {} edges, {} facets ({} degenerate, {} fold groups, {} generators merged), {:.1} supports per facet\n\
              selection  {solver}, {} independent parts (largest {} facets), {} facets fixed by propagation\n\
              mesh       {} vertices, {} faces, {} components, {closed}\n\
              border     {} clusters on the border of the data, {} boundary loops kept open along it\n\
              repair     {} holes closed with {} faces, {} left open; {} orientation clashes cut out; {} vertices split\n\
-             time       {}\n\
-             memory     arena peak {} bytes ({:.1} bytes/point), {} reserved\n\
-             output     {}\n",
-            self.input.name,
-            self.read,
-            clean_text(self.clean, self.params),
+             {}",
+            self.input.text(),
             cl.clusters,
             cl.initial_clusters,
             cl.splits,
@@ -246,40 +227,25 @@ impl Report<'_> {
             mesh.holes_left,
             mesh.repairs,
             mesh.split_vertices,
-            self.clock.summary(),
-            m.peak,
-            m.peak as f64 / n as f64,
-            self.arena_bytes,
-            self.output.display(),
+            self.run.text(self.input.points, ""),
         )
     }
 
     fn json(&self) -> String {
-        let c = &self.out.clustered.stats;
-        let cl = &c.cluster;
-        let m = &self.out.meshing;
+        let cl = &self.cluster;
+        let m = &self.meshing;
         let sel = &m.selection;
         let mesh = &m.mesh;
         let mut o = json::Obj::default();
-        o.str("input", &self.input.name)
-            .num("points", self.input.points.len() as f64)
-            .bool("normals_given", self.input.normals.is_some())
-            .num(
-                "diagonal",
-                self.out.clustered.bounds.diag as f64 * self.input.frame.scale,
-            );
-        clean_json(&mut o, self.clean, self.read, self.params);
+        self.input.json(&mut o);
         o.num("clusters", cl.clusters as f64)
             .num("initial_clusters", cl.initial_clusters as f64)
             .num("splits", cl.splits as f64)
             .num("refine_rounds", m.refine_rounds as f64)
             .num("refine_added", m.refine_added as f64)
-            .num("passes", cl.passes as f64)
-            .num("max_error_relative", cl.max_error as f64)
-            .num("tolerance_relative", self.params.tolerance as f64)
-            .num("tolerance_used_relative", cl.tolerance as f64)
-            .num("noise_floor_relative", cl.noise as f64)
-            .num("candidate_edges", m.candidate_edges as f64)
+            .num("passes", cl.passes as f64);
+        error_json(&mut o, cl, self.tolerance);
+        o.num("candidate_edges", m.candidate_edges as f64)
             .num("candidate_facets", m.candidate_facets as f64)
             .num("degenerate_facets", m.degenerate_facets as f64)
             .num("fold_groups", m.fold_groups as f64)
@@ -304,11 +270,8 @@ impl Report<'_> {
             .num("holes_left", mesh.holes_left as f64)
             .num("orientation_repairs", mesh.repairs as f64)
             .num("uncovered_clusters", mesh.uncovered_clusters as f64)
-            .num("uncovered_points", mesh.uncovered_points as f64)
-            .raw("time_ms", &self.clock.json())
-            .num("arena_peak_bytes", m.peak as f64)
-            .num("arena_reserved_bytes", self.arena_bytes as f64)
-            .str("output", &self.output.display().to_string());
+            .num("uncovered_points", mesh.uncovered_points as f64);
+        self.run.json(&mut o);
         o.finish() + "\n"
     }
 }

@@ -1,5 +1,5 @@
 //! Writing results: atomic replacement of the target file, labelled points as binary
-//! PLY, meshes as binary PLY, OBJ or OFF.
+//! PLY, meshes as binary PLY, OBJ or OFF, and reports ([`publish`]).
 //!
 //! [`write_atomic`] writes a hidden temporary file beside the target, syncs it and renames
 //! it over the target, so the target is either the old file or the complete new one.
@@ -113,6 +113,21 @@ pub fn write_atomic(
         let _ = d.sync_all();
     }
     Ok(())
+}
+
+/// Prints a report's `text` to stdout and, when `json_path` is given, writes `json()`
+/// there with [`write_atomic`] (the JSON is only made when it is asked for).
+pub fn publish(
+    text: &str,
+    json_path: Option<&Path>,
+    json: impl FnOnce() -> String,
+) -> Result<(), WriteError> {
+    print!("{text}");
+    let Some(path) = json_path else {
+        return Ok(());
+    };
+    let body = json();
+    write_atomic(path, |w| w.write_all(body.as_bytes()))
 }
 
 fn invalid(msg: String) -> io::Error {

@@ -1,0 +1,282 @@
+//! The arguments `cluster` and `reconstruct` share, and what they turn into: the
+//! points ([`read_input`]) and the arena buffer ([`arena_buffer`]) of a run.
+
+use crate::input::{self, Prepared};
+use crate::progress::StageClock;
+use clap::Args;
+use std::mem::MaybeUninit;
+use std::path::PathBuf;
+use vsaqem_core::sample::Shape;
+use vsaqem_core::Params;
+
+/// Where the points come from.
+#[derive(Args, Debug, Clone)]
+pub struct InputArgs {
+    /// Point cloud to read (.ply, .xyz/.xyzn/.txt/.pts, .pcd; normals used when
+    /// present). Without it, a built-in generated sample is used.
+    pub input: Option<PathBuf>,
+    /// Built-in sample when no input is given: demo, sphere, torus, box, cylinder
+    /// (closed); hemisphere, tube, wave, holed-sphere (open surfaces); scene (a
+    /// sphere and a cube apart, plus a stray fragment of 40 points).
+    #[arg(long, default_value = "demo", value_parser = parse_shape)]
+    pub sample: Shape,
+    /// Points of the built-in sample.
+    #[arg(long, default_value_t = 20_000)]
+    pub points: usize,
+    /// Gaussian noise added to the built-in sample, as a fraction of its
+    /// bounding-box diagonal (e.g. 0.005 = 0.5 %).
+    #[arg(long, default_value_t = 0.0)]
+    pub noise: f64,
+}
+
+fn parse_shape(s: &str) -> Result<Shape, String> {
+    Shape::from_name(s).ok_or_else(|| {
+        format!(
+            "unknown sample '{s}': use demo, sphere, torus, box, cylinder (closed), \
+             hemisphere, tube, wave or holed-sphere (open), or scene (two objects and a \
+             stray fragment)"
+        )
+    })
+}
+
+/// Read (or sample) and normalise, timing it.
+pub fn read_input(args: &InputArgs, clock: &mut StageClock) -> Result<Prepared, String> {
+    clock.time("read", || {
+        let (name, cloud) = input::load(
+            args.input.as_deref(),
+            args.sample,
+            args.points,
+            args.noise,
+            1,
+        )?;
+        Ok(input::prepare(name, cloud))
+    })
+}
+
+/// The cleaning pre-pass (`vsaqem_core::clean`); defaults are
+/// `vsaqem_core::Params::default()`.
+#[derive(Args, Debug, Clone)]
+pub struct CleanArgs {
+    /// Remove statistical outliers: points whose mean distance to their --knn
+    /// nearest neighbours is more than SIGMA standard deviations above the mean
+    /// of all points (e.g. 2 or 3; 0: off).
+    #[arg(long = "outliers", value_name = "SIGMA", allow_hyphen_values = true,
+          default_value_t = Params::default().outlier_sigma, value_parser = parse_sigma)]
+    pub outlier_sigma: f32,
+    /// Drop isolated pieces of fewer than N points (pieces: neighbours within
+    /// 4 average spacings of each other); the largest piece is always kept
+    /// (0: off).
+    #[arg(long, value_name = "N", allow_hyphen_values = true,
+          default_value_t = Params::default().min_fragment, value_parser = parse_fragment)]
+    pub min_fragment: u32,
+    /// Rounds of smoothing after cleaning: each moves every point onto the
+    /// least-squares plane of its 24 nearest neighbours. For noise near the point
+    /// spacing (about 1 % of the diagonal); rounds sharp edges (0: off).
+    #[arg(long = "smooth", value_name = "ROUNDS", allow_hyphen_values = true,
+          default_value_t = Params::default().smooth_rounds, value_parser = parse_rounds)]
+    pub smooth_rounds: u32,
+}
+
+fn parse_rounds(s: &str) -> Result<u32, String> {
+    s.trim()
+        .parse::<u32>()
+        .map_err(|_| format!("'{s}' is not a whole number of rounds >= 0 (0: off)"))
+}
+
+fn parse_sigma(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        _ => Err(format!(
+            "'{s}' is not a number of standard deviations >= 0 (e.g. 2 or 3; 0: off)"
+        )),
+    }
+}
+
+fn parse_fragment(s: &str) -> Result<u32, String> {
+    s.trim()
+        .parse::<u32>()
+        .map_err(|_| format!("'{s}' is not a whole number of points >= 0 (0: off)"))
+}
+
+impl CleanArgs {
+    /// `params` with these cleaning settings.
+    pub fn apply(&self, params: Params) -> Params {
+        Params {
+            outlier_sigma: self.outlier_sigma,
+            min_fragment: self.min_fragment,
+            smooth_rounds: self.smooth_rounds,
+            ..params
+        }
+    }
+}
+
+/// Clustering parameters; defaults are `vsaqem_core::Params::default()`.
+#[derive(Args, Debug, Clone)]
+pub struct ClusterArgs {
+    /// Initial number of clusters (generators); the output has about this many
+    /// vertices, more where splitting adds some.
+    #[arg(long, default_value_t = Params::default().clusters)]
+    pub clusters: u32,
+    /// Cap on clusters that splitting may reach (0: twice --clusters).
+    #[arg(long, default_value_t = Params::default().max_clusters)]
+    pub max_clusters: u32,
+    /// Partition + generator-update passes before splitting.
+    #[arg(long, default_value_t = Params::default().iterations)]
+    pub iterations: u32,
+    /// Passes after each splitting batch.
+    #[arg(long, default_value_t = Params::default().split_iterations)]
+    pub split_iterations: u32,
+    /// Splitting batches at most (0 disables splitting).
+    #[arg(long, default_value_t = Params::default().split_rounds)]
+    pub split_rounds: u32,
+    /// Largest allowed error of a point against its cluster's generator, as a
+    /// fraction of the bounding-box diagonal (0 disables splitting); never below
+    /// 4 times the noise floor of the data.
+    #[arg(long, default_value_t = Params::default().tolerance)]
+    pub tolerance: f32,
+    /// Weight of the Euclidean term in the partition cost (dimensionless).
+    #[arg(long, default_value_t = Params::default().lambda)]
+    pub lambda: f32,
+    /// Neighbours per point (1 to 32).
+    #[arg(long, default_value_t = Params::default().k)]
+    pub knn: usize,
+    /// Seed of the generator initialisation (same seed, same output).
+    #[arg(long, default_value_t = Params::default().seed)]
+    pub seed: u64,
+}
+
+impl ClusterArgs {
+    /// The core parameters.
+    pub fn params(&self) -> Params {
+        Params {
+            k: self.knn,
+            clusters: self.clusters,
+            max_clusters: self.max_clusters,
+            iterations: self.iterations,
+            split_iterations: self.split_iterations,
+            split_rounds: self.split_rounds,
+            tolerance: self.tolerance,
+            lambda: self.lambda,
+            seed: self.seed,
+            ..Params::default()
+        }
+    }
+}
+
+/// The arena budget of a run.
+#[derive(Args, Debug, Clone)]
+pub struct MemoryArgs {
+    /// Arena size in bytes (suffixes KiB, MiB, GiB; e.g. 64MiB, 1.5GiB, 200000).
+    /// Default: the most this run can need, as core bounds it for these points
+    /// and parameters. Less than that fails at once, naming the size needed;
+    /// more is allowed but never used.
+    #[arg(long, value_name = "BYTES", value_parser = parse_bytes)]
+    pub memory: Option<usize>,
+}
+
+impl MemoryArgs {
+    /// The arena size to use when the run needs `needed` bytes at most: the
+    /// `--memory` budget, checked against `needed` before any work, or `needed`.
+    pub fn arena_size(&self, needed: usize, points: usize) -> Result<usize, String> {
+        match self.memory {
+            None => Ok(needed),
+            Some(given) if given >= needed => Ok(given),
+            Some(given) => Err(format!(
+                "--memory {given} bytes ({:.1} MiB) is too small: this run needs {needed} \
+                 bytes ({:.1} MiB) for {points} points with these parameters; give at \
+                 least that, or use fewer clusters or neighbours",
+                mib(given),
+                mib(needed)
+            )),
+        }
+    }
+}
+
+fn mib(bytes: usize) -> f64 {
+    bytes as f64 / (1u64 << 20) as f64
+}
+
+/// A byte count: a whole number of bytes, or a number with a unit: `KiB`, `MiB`,
+/// `GiB` (also `K`, `M`, `G`), `KB`, `MB`, `GB` (powers of 1000) or `B`, any
+/// case, e.g. `64MiB`, `1.5GiB`, `200000`. Fractions of a byte are dropped.
+pub fn parse_bytes(s: &str) -> Result<usize, String> {
+    let t = s.trim();
+    let at = t.find(|c: char| c.is_ascii_alphabetic()).unwrap_or(t.len());
+    let (number, unit) = (t[..at].trim(), t[at..].trim());
+    let scale: u64 = match unit.to_ascii_lowercase().as_str() {
+        "" | "b" => 1,
+        "k" | "kib" => 1 << 10,
+        "m" | "mib" => 1 << 20,
+        "g" | "gib" => 1 << 30,
+        "kb" => 1_000,
+        "mb" => 1_000_000,
+        "gb" => 1_000_000_000,
+        _ => {
+            return Err(format!(
+                "'{s}': unknown unit '{unit}' (use bytes, KiB, MiB or GiB, e.g. 64MiB)"
+            ))
+        }
+    };
+    let too_large = || format!("'{s}': too large for this machine");
+    if !number.is_empty() && number.bytes().all(|b| b.is_ascii_digit()) {
+        let whole: u64 = number.parse().map_err(|_| too_large())?;
+        let bytes = whole.checked_mul(scale).ok_or_else(too_large)?;
+        return usize::try_from(bytes).map_err(|_| too_large());
+    }
+    let value: f64 = number
+        .parse()
+        .ok()
+        .filter(|v: &f64| v.is_finite() && *v >= 0.0 && !number.starts_with(['+', '-']))
+        .ok_or_else(|| format!("'{s}': not a size (a number of bytes, or e.g. 64MiB)"))?;
+    if scale == 1 && value.fract() != 0.0 {
+        return Err(format!("'{s}': not a whole number of bytes"));
+    }
+    let bytes = (value * scale as f64).floor();
+    if bytes >= usize::MAX as f64 || bytes >= (1u64 << 53) as f64 {
+        return Err(too_large());
+    }
+    Ok(bytes as usize)
+}
+
+/// A buffer of `bytes` uninitialised bytes for the core arena. The pages are not
+/// touched until core uses them, so the process's resident memory follows the
+/// arena's real use, not its size.
+pub fn arena_buffer(bytes: usize) -> Vec<MaybeUninit<u8>> {
+    let mut v = Vec::with_capacity(bytes);
+    v.resize(bytes, MaybeUninit::uninit());
+    v
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_bytes;
+
+    #[test]
+    fn sizes_parse_with_and_without_units() {
+        assert_eq!(parse_bytes("200000"), Ok(200_000));
+        assert_eq!(parse_bytes("64MiB"), Ok(64 << 20));
+        assert_eq!(parse_bytes("1.5GiB"), Ok(3 << 29));
+        assert_eq!(parse_bytes("512 KiB"), Ok(512 << 10));
+        assert_eq!(parse_bytes("2k"), Ok(2048));
+        assert_eq!(parse_bytes("3MB"), Ok(3_000_000));
+        assert_eq!(parse_bytes("100b"), Ok(100));
+        assert_eq!(parse_bytes("0.5KiB"), Ok(512));
+        assert_eq!(parse_bytes("1.0001KiB"), Ok(1024));
+        for bad in [
+            "",
+            "MiB",
+            "-5",
+            "+5",
+            "1.5",
+            "12 parsecs",
+            "1e400GiB",
+            "nan",
+            "0x10",
+        ] {
+            let e = parse_bytes(bad).unwrap_err();
+            assert!(e.contains(&format!("'{bad}'")), "{bad}: {e}");
+        }
+        assert!(parse_bytes("99999999999999999999999").is_err());
+        assert!(parse_bytes("99999999999GiB").is_err());
+    }
+}

@@ -1,0 +1,115 @@
+//! The cleaning pre-pass of `cluster` and `reconstruct`: the outlier and fragment
+//! filters of `vsaqem_core::clean`, then smoothing, each in a buffer of its own;
+//! and [`read_and_clean`], the start both commands share.
+
+use crate::args::{arena_buffer, read_input, InputArgs, MemoryArgs};
+use crate::input::Prepared;
+use crate::progress::StageClock;
+use std::mem::MaybeUninit;
+use vsaqem_core::{Arena, CleanStats, Error, Params};
+
+/// The points of a run, read and cleaned, and the arena buffer core runs in.
+pub struct Cleaned {
+    /// The points after the pre-pass.
+    pub input: Prepared,
+    /// Points read, before cleaning.
+    pub points_read: usize,
+    /// What the cleaning filters did (`None`: both are off).
+    pub stats: Option<CleanStats>,
+    /// The arena buffer: the `--memory` budget, or what the run and the pre-pass
+    /// can need.
+    pub buf: Vec<MaybeUninit<u8>>,
+}
+
+/// Read the input, size the arena for a command that needs `run_bytes(points,
+/// params)` and for the pre-pass, checked against `--memory` before any work,
+/// then clean ([`clean_input`]).
+pub fn read_and_clean(
+    input: &InputArgs,
+    memory: &MemoryArgs,
+    params: &Params,
+    run_bytes: fn(usize, &Params) -> usize,
+    clock: &mut StageClock,
+) -> Result<Cleaned, String> {
+    let input = read_input(input, clock)?;
+    let points_read = input.points.len();
+    let needed = with_clean(run_bytes(points_read, params), points_read, params);
+    let mut buf = arena_buffer(memory.arena_size(needed, points_read)?);
+    let (input, stats) =
+        clean_input(input, params, &mut buf, clock).inspect_err(|_| clock.finish())?;
+    Ok(Cleaned {
+        input,
+        points_read,
+        stats,
+        buf,
+    })
+}
+
+/// The arena a run on `n` points needs when `run` bytes are enough for the
+/// command itself: also enough for the cleaning pre-pass when it is on (it runs
+/// first, in the same buffer).
+fn with_clean(run: usize, n: usize, params: &Params) -> usize {
+    let run = run.max(vsaqem_core::smooth_bytes(n, params));
+    if params.cleans() {
+        run.max(vsaqem_core::clean_bytes(n, params))
+    } else {
+        run
+    }
+}
+
+/// The cleaning pre-pass (`vsaqem_core::clean`), then the kept points compacted
+/// and normalised again, then `--smooth` rounds of smoothing. `None` when both
+/// filters are off; the input is handed back untouched when nothing is removed
+/// and nothing smoothed, so the output is then the same as without cleaning.
+///
+/// Each pre-pass gets a buffer of its own, at most `buf`'s size (the budget),
+/// freed when it ends: working in `buf` would leave its pages resident beside
+/// those the reconstruction then touches (1M points: 175 MB peak RSS instead of
+/// 139 MB), while `buf`'s own pages stay untouched until the run uses them.
+pub fn clean_input(
+    input: Prepared,
+    params: &Params,
+    buf: &mut [MaybeUninit<u8>],
+    clock: &mut StageClock,
+) -> Result<(Prepared, Option<CleanStats>), String> {
+    let budget = buf.len();
+    let (mut input, stats) = filter_input(input, params, budget, clock)?;
+    if params.smooth_rounds > 0 {
+        let need = vsaqem_core::smooth_bytes(input.points.len(), params);
+        let mut own = arena_buffer(need.min(budget));
+        let arena = Arena::new(&mut own);
+        vsaqem_core::smooth(&arena, &mut input.points, params, clock)
+            .map_err(|e| format!("{}: smoothing: {e}", input.name))?;
+    }
+    Ok((input, stats))
+}
+
+/// The cleaning filters of [`clean_input`].
+fn filter_input(
+    input: Prepared,
+    params: &Params,
+    budget: usize,
+    clock: &mut StageClock,
+) -> Result<(Prepared, Option<CleanStats>), String> {
+    if !params.cleans() {
+        return Ok((input, None));
+    }
+    let need = vsaqem_core::clean_bytes(input.points.len(), params);
+    let mut own = arena_buffer(need.min(budget));
+    let arena = Arena::new(&mut own);
+    let mut keep = vec![true; input.points.len()];
+    let stats = match vsaqem_core::clean(&arena, &input.points, params, &mut keep, clock) {
+        Ok(s) => s,
+        Err(e @ Error::TooFewKept { .. }) => {
+            return Err(format!(
+                "{}: {e} (--outliers {}, --min-fragment {})",
+                input.name, params.outlier_sigma, params.min_fragment
+            ))
+        }
+        Err(e) => return Err(format!("{}: {e}", input.name)),
+    };
+    if stats.kept == stats.points {
+        return Ok((input, Some(stats)));
+    }
+    Ok((input.keep(&keep), Some(stats)))
+}
