@@ -20,6 +20,8 @@
 
 use crate::geom::{cross, dot, sub};
 use std::thread;
+use vsaqem_core::rng::Rng;
+use vsaqem_core::union_find::UnionFind;
 
 /// Surface samples of the mesh -> points direction unless told otherwise.
 pub const DEFAULT_SAMPLES: usize = 100_000;
@@ -515,20 +517,6 @@ fn point_to_mesh_distances(points: &[[f64; 3]], tris: &[[[f64; 3]; 3]]) -> Vec<f
     out
 }
 
-/// SplitMix64: small, seedable, good enough for sampling.
-struct Rng(u64);
-
-impl Rng {
-    fn next_f64(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        (z >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
-
 /// `n` points uniform by area on the triangles (seeded by [`SAMPLE_SEED`]); none when
 /// the total area is zero.
 pub fn sample_surface(tris: &[[[f64; 3]; 3]], n: usize) -> Vec<[f64; 3]> {
@@ -542,14 +530,14 @@ pub fn sample_surface(tris: &[[[f64; 3]; 3]], n: usize) -> Vec<[f64; 3]> {
     if total.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) || !total.is_finite() {
         return Vec::new();
     }
-    let mut rng = Rng(SAMPLE_SEED);
+    let mut rng = Rng::from_state(SAMPLE_SEED);
     (0..n)
         .map(|_| {
-            let u = rng.next_f64() * total;
+            let u = rng.unit_f64() * total;
             let i = cum.partition_point(|&c| c <= u).min(tris.len() - 1);
             let [a, b, c] = tris[i];
-            let s = rng.next_f64().sqrt();
-            let v = rng.next_f64();
+            let s = rng.unit_f64().sqrt();
+            let v = rng.unit_f64();
             let (wb, wc) = (s * (1.0 - v), s * v);
             let p = axpy(a, wb, sub(b, a));
             axpy(p, wc, sub(c, a))
@@ -619,31 +607,6 @@ fn stats(mut v: Vec<f64>) -> Stats {
 // ---------------------------------------------------------------------------------
 // Topology
 
-/// Union-find with path halving.
-struct Dsu(Vec<u32>);
-
-impl Dsu {
-    fn new(n: usize) -> Self {
-        Dsu((0..n as u32).collect())
-    }
-
-    fn find(&mut self, mut x: u32) -> u32 {
-        while self.0[x as usize] != x {
-            let up = self.0[self.0[x as usize] as usize];
-            self.0[x as usize] = up;
-            x = up;
-        }
-        x
-    }
-
-    fn union(&mut self, a: u32, b: u32) {
-        let (a, b) = (self.find(a), self.find(b));
-        if a != b {
-            self.0[a.max(b) as usize] = a.min(b);
-        }
-    }
-}
-
 /// Topology of `faces` (indices all `< nv`); `tris` are their positions.
 /// O(F log F): one sort of the 3F half-edges and one of the 3F corners.
 fn topology(nv: usize, faces: &[[u32; 3]], tris: &[[[f64; 3]; 3]]) -> Topology {
@@ -695,8 +658,10 @@ fn topology(nv: usize, faces: &[[u32; 3]], tris: &[[[f64; 3]; 3]]) -> Topology {
             (cj, ci)
         }
     };
-    let mut faces_dsu = Dsu::new(proper.len());
-    let mut fans = Dsu::new(3 * proper.len());
+    let mut face_parent = vec![0u32; proper.len()];
+    let mut fan_parent = vec![0u32; 3 * proper.len()];
+    let mut faces_dsu = UnionFind::new(&mut face_parent);
+    let mut fans = UnionFind::new(&mut fan_parent);
     for group in half.chunk_by(|x, y| x.0 == y.0) {
         t.edges += 1;
         match group.len() {
@@ -778,9 +743,9 @@ mod tests {
     }
 
     fn rng_points(n: usize, seed: u64, scale: f64) -> Vec<[f64; 3]> {
-        let mut r = Rng(seed);
+        let mut r = Rng::from_state(seed);
         (0..n)
-            .map(|_| [0; 3].map(|_| (r.next_f64() - 0.5) * scale))
+            .map(|_| [0; 3].map(|_| (r.unit_f64() - 0.5) * scale))
             .collect()
     }
 
