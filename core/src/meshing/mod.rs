@@ -21,6 +21,8 @@
 
 pub mod border;
 pub mod candidates;
+pub mod distance;
+pub mod face_grid;
 pub mod output;
 pub mod problem;
 pub mod score;

@@ -1,0 +1,375 @@
+//! A sparse uniform grid over the faces of a mesh: which faces come near a point
+//! or a box, without a scan of all faces. The point-to-mesh distances and the
+//! self-intersection test both query it.
+//!
+//! Every face is entered in each cell its bounding box overlaps. The grid is one
+//! sorted array of `(cell << 32) | face` keys, so a cell's faces are one run,
+//! found by binary search: 8 bytes per entry, nothing else. The cell size starts
+//! at the mean bounding-box extent of the faces and doubles until the entries
+//! number at most [`ENTRIES_PER_FACE`] per face and the grid at most
+//! [`MAX_CELLS_PER_AXIS`] cells along an axis, so memory is at most `8 ×
+//! ENTRIES_PER_FACE` bytes per face whatever the faces' shapes.
+//!
+//! Cost: building, O(E log E) for E entries; a nearest-face query, O(faces in
+//! the rings searched × log E); it falls back to a scan of all faces when a ring
+//! would hold more cells than there are faces, so a query never costs more than
+//! O(F) beyond that.
+
+use crate::arena::Alloc;
+use crate::error::Result;
+use crate::math::V3;
+use crate::meshing::score::point_triangle_dist2;
+
+/// Entries (face, cell) per face at most, on average.
+pub const ENTRIES_PER_FACE: usize = 8;
+/// Cells along an axis at most (10 bits of the packed cell key per axis).
+pub const MAX_CELLS_PER_AXIS: u32 = 1 << 10;
+
+/// The grid. Cell `(x, y, z)` holds the faces whose bounding box overlaps
+/// `origin + h [x, x+1) × [y, y+1) × [z, z+1)`.
+#[derive(Clone, Copy)]
+pub struct FaceGrid<'a> {
+    /// Sorted `(cell key << 32) | face` entries.
+    entries: &'a [u64],
+    /// Lowest corner of the grid.
+    origin: V3,
+    /// Cell size (> 0).
+    h: f32,
+    /// Cells along each axis (each in `1..=MAX_CELLS_PER_AXIS`).
+    dims: [u32; 3],
+    /// The mesh's vertices.
+    vertices: &'a [V3],
+    /// The mesh's faces.
+    faces: &'a [[u32; 3]],
+}
+
+/// Corners of face `f`, or `None` when an index is out of range or a
+/// coordinate is not finite (such faces are left out of the grid).
+fn corners(vertices: &[V3], face: [u32; 3]) -> Option<[V3; 3]> {
+    let t = [
+        *vertices.get(face[0] as usize)?,
+        *vertices.get(face[1] as usize)?,
+        *vertices.get(face[2] as usize)?,
+    ];
+    t.iter().flatten().all(|v| v.is_finite()).then_some(t)
+}
+
+/// Bounding box of three points.
+fn bbox(t: &[V3; 3]) -> (V3, V3) {
+    let mut lo = t[0];
+    let mut hi = t[0];
+    for p in &t[1..] {
+        for a in 0..3 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+    }
+    (lo, hi)
+}
+
+fn pack(c: [u32; 3]) -> u64 {
+    ((c[0] as u64) << 20) | ((c[1] as u64) << 10) | c[2] as u64
+}
+
+impl<'a> FaceGrid<'a> {
+    /// The grid of `faces` over `vertices`, in memory from `alloc`. Faces with an
+    /// index out of range or a non-finite corner are left out (never found).
+    pub fn try_new_in<'b, A: Alloc<'b>>(
+        alloc: &'a A,
+        vertices: &'a [V3],
+        faces: &'a [[u32; 3]],
+    ) -> Result<FaceGrid<'a>> {
+        let mut lo = [f32::INFINITY; 3];
+        let mut hi = [f32::NEG_INFINITY; 3];
+        let mut extent = 0.0f64;
+        let mut counted = 0usize;
+        for t in faces.iter().filter_map(|&f| corners(vertices, f)) {
+            let (a, b) = bbox(&t);
+            for k in 0..3 {
+                lo[k] = lo[k].min(a[k]);
+                hi[k] = hi[k].max(b[k]);
+                extent += (b[k] - a[k]) as f64;
+            }
+            counted += 1;
+        }
+        let mut grid = FaceGrid {
+            entries: &[],
+            origin: lo,
+            h: 1.0,
+            dims: [1; 3],
+            vertices,
+            faces,
+        };
+        if counted == 0 {
+            return Ok(grid);
+        }
+        let span = (0..3).map(|k| hi[k] - lo[k]).fold(0.0f32, f32::max);
+        let floor = span / MAX_CELLS_PER_AXIS as f32;
+        let mut h = ((extent / (3 * counted) as f64) as f32).max(floor);
+        if h.is_nan() || h <= 0.0 || !h.is_finite() {
+            h = if span > 0.0 && span.is_finite() {
+                span
+            } else {
+                1.0
+            };
+        }
+        let cap = counted.saturating_mul(ENTRIES_PER_FACE);
+        let total = loop {
+            grid.h = h;
+            grid.dims = core::array::from_fn(|k| grid.cell_of_coord(hi[k], k) + 1);
+            let total = grid.count_entries();
+            if total <= cap && grid.dims.iter().all(|&d| d <= MAX_CELLS_PER_AXIS) {
+                break total;
+            }
+            h *= 2.0;
+        };
+        let entries = alloc.try_alloc_slice::<u64>(total, 0)?;
+        let mut w = 0;
+        for (f, &face) in faces.iter().enumerate() {
+            grid.for_cells_of(face, |key| {
+                entries[w] = (key << 32) | f as u64;
+                w += 1;
+            });
+        }
+        entries.sort_unstable();
+        grid.entries = entries;
+        Ok(grid)
+    }
+
+    /// The cell coordinate of `v` along axis `k`, clamped to the grid.
+    fn cell_of_coord(&self, v: f32, k: usize) -> u32 {
+        let c = (v - self.origin[k]) / self.h;
+        if c >= 0.0 {
+            (c as u32).min(MAX_CELLS_PER_AXIS * 2)
+        } else {
+            0
+        }
+    }
+
+    /// The cells face `face`'s bounding box overlaps, as an inclusive range,
+    /// or `None` for a face left out.
+    fn cell_range(&self, face: [u32; 3]) -> Option<([u32; 3], [u32; 3])> {
+        let (a, b) = bbox(&corners(self.vertices, face)?);
+        Some(self.cells_of_box(a, b))
+    }
+
+    /// Calls `f` with the key of every cell face `face`'s bounding box overlaps.
+    fn for_cells_of(&self, face: [u32; 3], mut f: impl FnMut(u64)) {
+        let Some((c0, c1)) = self.cell_range(face) else {
+            return;
+        };
+        for x in c0[0]..=c1[0] {
+            for y in c0[1]..=c1[1] {
+                for z in c0[2]..=c1[2] {
+                    f(pack([x, y, z]));
+                }
+            }
+        }
+    }
+
+    /// Entries the current cell size gives (saturating).
+    fn count_entries(&self) -> usize {
+        let mut total = 0usize;
+        for &face in self.faces {
+            if let Some((c0, c1)) = self.cell_range(face) {
+                let cells = (0..3).fold(1usize, |n, k| {
+                    n.saturating_mul((c1[k] - c0[k]) as usize + 1)
+                });
+                total = total.saturating_add(cells);
+            }
+        }
+        total
+    }
+
+    /// The faces entered in cell `c` (each at most once).
+    pub fn cell(&self, c: [u32; 3]) -> impl Iterator<Item = u32> + 'a {
+        let key = pack(c);
+        let entries = self.entries;
+        let start = entries.partition_point(|&e| (e >> 32) < key);
+        entries[start..]
+            .iter()
+            .take_while(move |&&e| (e >> 32) == key)
+            .map(|&e| e as u32)
+    }
+
+    /// Grid dimensions.
+    pub fn dims(&self) -> [u32; 3] {
+        self.dims
+    }
+
+    /// The range of cells the box `[lo, hi]` overlaps, clamped to the grid.
+    pub fn cells_of_box(&self, lo: V3, hi: V3) -> ([u32; 3], [u32; 3]) {
+        let c0 = core::array::from_fn(|k| self.cell_of_coord(lo[k], k).min(self.dims[k] - 1));
+        let c1 = core::array::from_fn(|k| self.cell_of_coord(hi[k], k).min(self.dims[k] - 1));
+        (c0, c1)
+    }
+
+    /// The face nearest to `p` and its squared distance (exact point-triangle
+    /// distance; ties go to the lower face index), or `None` without faces.
+    pub fn nearest(&self, p: V3) -> Option<(u32, f32)> {
+        if self.entries.is_empty() || !p.iter().all(|v| v.is_finite()) {
+            return None;
+        }
+        let mut best: Option<(u32, f32)> = None;
+        let offer = |f: u32, best: &mut Option<(u32, f32)>| {
+            let Some(t) = self
+                .faces
+                .get(f as usize)
+                .and_then(|&t| corners(self.vertices, t))
+            else {
+                return;
+            };
+            let d2 = point_triangle_dist2(p, t[0], t[1], t[2]);
+            let better = match *best {
+                None => true,
+                Some((g, e)) => d2 < e || (d2 == e && f < g),
+            };
+            if better && d2.is_finite() {
+                *best = Some((f, d2));
+            }
+        };
+        // The point's cell, unclamped (it may lie outside the grid).
+        let cell: [i64; 3] = core::array::from_fn(|k| {
+            let c = libm::floorf((p[k] - self.origin[k]) / self.h);
+            c.clamp(-(1 << 30) as f32, (1 << 30) as f32) as i64
+        });
+        // Rings that cannot reach the grid hold nothing: start at the first that can.
+        let gap = (0..3)
+            .map(|k| {
+                let d = self.dims[k] as i64;
+                if cell[k] < 0 {
+                    -cell[k]
+                } else if cell[k] >= d {
+                    cell[k] - d + 1
+                } else {
+                    0
+                }
+            })
+            .max()
+            .unwrap_or(0);
+        let reach = self.dims.iter().map(|&d| d as i64).max().unwrap_or(1) + gap;
+        let mut r = gap;
+        loop {
+            // Cells in ring r: (2r+1)^3 - (2r-1)^3; past the faces' count, scan.
+            let ring_cells = 24 * r * r + 2;
+            if ring_cells > self.faces.len() as i64 + 64 {
+                for f in 0..self.faces.len() as u32 {
+                    offer(f, &mut best);
+                }
+                return best;
+            }
+            self.visit_ring(cell, r, |f| offer(f, &mut best));
+            // Every face not yet seen lies at least r h away.
+            let bound = r as f32 * self.h;
+            match best {
+                Some((_, d2)) if d2 <= bound * bound => return best,
+                _ if r > reach => return best,
+                _ => {}
+            }
+            r += 1;
+        }
+    }
+
+    /// Calls `f` for every face entered in a cell at Chebyshev distance exactly
+    /// `r` from `c` (cells outside the grid hold nothing).
+    fn visit_ring(&self, c: [i64; 3], r: i64, mut f: impl FnMut(u32)) {
+        let inside = |v: i64, k: usize| v >= 0 && v < self.dims[k] as i64;
+        for x in c[0] - r..=c[0] + r {
+            if !inside(x, 0) {
+                continue;
+            }
+            for y in c[1] - r..=c[1] + r {
+                if !inside(y, 1) {
+                    continue;
+                }
+                let edge = (x - c[0]).abs() == r || (y - c[1]).abs() == r;
+                let mut z = c[2] - r;
+                while z <= c[2] + r {
+                    if inside(z, 2) {
+                        for face in self.cell([x as u32, y as u32, z as u32]) {
+                            f(face);
+                        }
+                    }
+                    // Inside the ring's x-y border only its two z faces count.
+                    z += if edge || r == 0 { 1 } else { 2 * r };
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::arena::Arena;
+    use crate::rng::Rng;
+    use std::mem::MaybeUninit;
+    use std::vec;
+    use std::vec::Vec;
+
+    fn soup(seed: u64, n: usize) -> (Vec<V3>, Vec<[u32; 3]>) {
+        let mut rng = Rng::new(seed);
+        let mut v = Vec::new();
+        let mut f = Vec::new();
+        for i in 0..n {
+            let c: V3 = core::array::from_fn(|_| rng.unit_f64() as f32 * 2.0 - 1.0);
+            let s = if i % 7 == 0 { 0.5 } else { 0.05 };
+            for _ in 0..3 {
+                v.push(core::array::from_fn(|k| {
+                    c[k] + (rng.unit_f64() as f32 - 0.5) * s
+                }));
+            }
+            let b = 3 * i as u32;
+            f.push([b, b + 1, b + 2]);
+        }
+        (v, f)
+    }
+
+    #[test]
+    fn nearest_equals_a_scan_of_all_faces() {
+        let (v, f) = soup(3, 400);
+        let mut buf = vec![MaybeUninit::uninit(); 1 << 20];
+        let arena = Arena::new(&mut buf);
+        let grid = FaceGrid::try_new_in(&arena, &v, &f).unwrap();
+        assert!(grid.entries.len() <= ENTRIES_PER_FACE * f.len());
+        let mut rng = Rng::new(9);
+        for i in 0..2000 {
+            // Points inside the grid, and some far outside it.
+            let s = if i % 10 == 0 { 6.0 } else { 1.2 };
+            let p: V3 = core::array::from_fn(|_| (rng.unit_f64() as f32 * 2.0 - 1.0) * s);
+            let brute = f
+                .iter()
+                .enumerate()
+                .map(|(i, t)| {
+                    let d = point_triangle_dist2(
+                        p,
+                        v[t[0] as usize],
+                        v[t[1] as usize],
+                        v[t[2] as usize],
+                    );
+                    (d, i as u32)
+                })
+                .fold(
+                    (f32::INFINITY, u32::MAX),
+                    |a, b| if b.0 < a.0 { b } else { a },
+                );
+            let (face, d2) = grid.nearest(p).unwrap();
+            assert_eq!(d2, brute.0, "point {p:?}");
+            assert_eq!(face, brute.1);
+        }
+    }
+
+    #[test]
+    fn empty_and_broken_meshes_find_nothing_and_do_not_panic() {
+        let mut buf = vec![MaybeUninit::uninit(); 1 << 16];
+        let arena = Arena::new(&mut buf);
+        let grid = FaceGrid::try_new_in(&arena, &[], &[]).unwrap();
+        assert_eq!(grid.nearest([0.0; 3]), None);
+        let v = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [f32::NAN, 1.0, 0.0]];
+        let grid = FaceGrid::try_new_in(&arena, &v, &[[0, 1, 2], [0, 1, 9]]).unwrap();
+        assert_eq!(grid.nearest([0.0; 3]), None);
+        let v = [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]];
+        let grid = FaceGrid::try_new_in(&arena, &v, &[[0, 1, 2]]).unwrap();
+        assert_eq!(grid.nearest([1.0, 0.0, 0.0]), Some((0, 1.0)));
+    }
+}
