@@ -40,8 +40,7 @@ impl Instance {
         SelectInput {
             edge_mask: Some(&self.mask),
             edge_penalty: Some(&self.penalty),
-            node_limit,
-            ..SelectInput::new(&self.facets, &self.scores, self.edges)
+            ..SelectInput::new(&self.facets, &self.scores, self.edges, node_limit)
         }
     }
 

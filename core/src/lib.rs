@@ -547,8 +547,7 @@ impl SelectionProblem<'_> {
         select::SelectInput {
             edge_mask: Some(self.masks),
             edge_penalty: Some(self.penalties),
-            node_limit,
-            ..select::SelectInput::new(self.rows, self.scores, self.masks.len())
+            ..select::SelectInput::new(self.rows, self.scores, self.masks.len(), node_limit)
         }
     }
 }

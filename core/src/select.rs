@@ -119,10 +119,6 @@ pub const MASK_AT_MOST_ONE: u8 = 0b011;
 pub const UNUSED: u32 = u32::MAX;
 /// Constraints one facet may belong to at most: its 3 edges and up to 3 fold groups.
 pub const MAX_CONSTRAINTS: usize = 6;
-/// A node limit that proves every instance of up to about a thousand facets we
-/// measured (they took at most 3000 nodes) and stops a hard one within about
-/// 10-20 s on a desktop core.
-pub const DEFAULT_NODE_LIMIT: u64 = 20_000;
 
 /// One selection problem. Constraint ("edge") ids index `0..edge_count`; a fold
 /// group is a constraint like an edge, with mask [`MASK_AT_MOST_ONE`].
@@ -144,16 +140,18 @@ pub struct SelectInput<'a> {
     /// `None`: no cost.
     pub edge_penalty: Option<&'a [f32]>,
     /// Search nodes allowed over the whole run (0: heuristics and root bound only).
+    /// The pipeline passes [`Params::node_limit`](crate::Params::node_limit).
     pub node_limit: u64,
 }
 
 impl<'a> SelectInput<'a> {
-    /// A closed-surface problem ([`MASK_CLOSED`] everywhere, no penalties,
-    /// [`DEFAULT_NODE_LIMIT`]).
+    /// A closed-surface problem ([`MASK_CLOSED`] everywhere, no penalties) that may
+    /// use `node_limit` search nodes (see [`SelectInput::node_limit`]).
     pub fn new(
         facet_edges: &'a [[u32; MAX_CONSTRAINTS]],
         scores: &'a [f32],
         edge_count: usize,
+        node_limit: u64,
     ) -> Self {
         SelectInput {
             facet_edges,
@@ -161,7 +159,7 @@ impl<'a> SelectInput<'a> {
             edge_count,
             edge_mask: None,
             edge_penalty: None,
-            node_limit: DEFAULT_NODE_LIMIT,
+            node_limit,
         }
     }
 }
@@ -1988,6 +1986,11 @@ mod tests {
     use std::vec;
     use std::vec::Vec;
 
+    /// Node limit of these tests. They check proofs of optimality, so they need a
+    /// limit that proves every instance here, not the pipeline's default
+    /// ([`crate::Params::node_limit`]).
+    const PROOF_NODE_LIMIT: u64 = 20_000;
+
     /// Facets given by vertex triples; edges numbered in order of appearance.
     struct Mesh {
         facets: Vec<[u32; MAX_CONSTRAINTS]>,
@@ -2106,13 +2109,13 @@ mod tests {
     #[test]
     fn a_tetrahedron_beats_its_worse_tented_alternative() {
         let (m, w) = tetra_and_tent();
-        let input = SelectInput::new(&m.facets, &w, m.edges.len());
+        let input = SelectInput::new(&m.facets, &w, m.edges.len(), PROOF_NODE_LIMIT);
         let (sel, st) = run(&input);
         assert_eq!(sel, [true, true, true, true, false, false, false]);
         assert!(st.optimal && (st.objective - 4.0).abs() < 1e-6 && st.gap == 0.0);
         // Make the tent worth more than face 012: the bipyramid wins.
         let w2 = vec![0.1, 1.0, 1.0, 1.0, 0.5, 0.5, 0.5];
-        let input = SelectInput::new(&m.facets, &w2, m.edges.len());
+        let input = SelectInput::new(&m.facets, &w2, m.edges.len(), PROOF_NODE_LIMIT);
         let (sel, st) = run(&input);
         assert_eq!(sel, [false, true, true, true, true, true, true]);
         assert!(st.optimal && (st.objective - 4.5).abs() < 1e-6);
@@ -2132,7 +2135,7 @@ mod tests {
             [1, 5, 0],
         ]);
         let w = vec![1.0, 1.0, 1.0, 1.0, 0.9, 0.9, 0.9, 0.9];
-        let input = SelectInput::new(&m.facets, &w, m.edges.len());
+        let input = SelectInput::new(&m.facets, &w, m.edges.len(), PROOF_NODE_LIMIT);
         let (sel, st) = run(&input);
         assert_eq!(&sel[..4], &[true; 4]);
         assert_eq!(&sel[4..], &[false; 4]);
@@ -2188,7 +2191,7 @@ mod tests {
         assert!(groups.iter().all(|g| g.len() == 2));
         let w = vec![1.0f32; 4];
         // Edges only: both triangulations close a flat tetrahedron, worth 4.
-        let input = SelectInput::new(&m.facets, &w, m.edges.len());
+        let input = SelectInput::new(&m.facets, &w, m.edges.len(), PROOF_NODE_LIMIT);
         let (sel, st) = run(&input);
         assert_eq!(sel, [true; 4]);
         assert!(st.optimal && (st.objective - 4.0).abs() < 1e-9);
@@ -2196,7 +2199,7 @@ mod tests {
         let (rows, mask) = with_groups(&m, &groups);
         let input = SelectInput {
             edge_mask: Some(&mask),
-            ..SelectInput::new(&rows, &w, mask.len())
+            ..SelectInput::new(&rows, &w, mask.len(), PROOF_NODE_LIMIT)
         };
         let (sel, st) = run(&input);
         assert_eq!(sel, [false; 4]);
@@ -2212,14 +2215,14 @@ mod tests {
         // closed by one triangulation (4 + 2 x 2.5).
         let mut w = vec![2.5f32; 4];
         w.extend((0..8).map(|i| if i % 2 == 0 { 1.0 } else { 0.9 }));
-        let input = SelectInput::new(&m.facets, &w, m.edges.len());
+        let input = SelectInput::new(&m.facets, &w, m.edges.len(), PROOF_NODE_LIMIT);
         let (sel, st) = run(&input);
         assert_eq!(&sel[..4], &[true; 4]);
         assert!(st.optimal && (st.objective - 10.0).abs() < 1e-5);
         let (rows, mask) = with_groups(&m, &groups);
         let input = SelectInput {
             edge_mask: Some(&mask),
-            ..SelectInput::new(&rows, &w, mask.len())
+            ..SelectInput::new(&rows, &w, mask.len(), PROOF_NODE_LIMIT)
         };
         let (sel, st) = run(&input);
         assert!(
@@ -2238,7 +2241,7 @@ mod tests {
     fn all_negative_scores_select_nothing() {
         let (m, _) = tetra_and_tent();
         let w = vec![-0.5; 7];
-        let input = SelectInput::new(&m.facets, &w, m.edges.len());
+        let input = SelectInput::new(&m.facets, &w, m.edges.len(), PROOF_NODE_LIMIT);
         let (sel, st) = run(&input);
         assert!(sel.iter().all(|&s| !s));
         assert!(st.optimal && st.objective == 0.0);
@@ -2248,7 +2251,7 @@ mod tests {
     fn a_negative_facet_is_taken_when_it_closes_a_surface() {
         let (m, _) = tetra_and_tent();
         let w = vec![-0.5, 1.0, 1.0, 1.0, -1.0, -1.0, -1.0];
-        let input = SelectInput::new(&m.facets, &w, m.edges.len());
+        let input = SelectInput::new(&m.facets, &w, m.edges.len(), PROOF_NODE_LIMIT);
         let (sel, st) = run(&input);
         assert_eq!(sel, [true, true, true, true, false, false, false]);
         assert!(st.optimal && (st.objective - 2.5).abs() < 1e-6);
@@ -2276,7 +2279,7 @@ mod tests {
             let input = SelectInput {
                 edge_mask: Some(&mask),
                 edge_penalty: Some(&pens),
-                ..SelectInput::new(&m.facets, &w, m.edges.len())
+                ..SelectInput::new(&m.facets, &w, m.edges.len(), PROOF_NODE_LIMIT)
             };
             let (sel, st) = run(&input);
             assert!(st.optimal);
@@ -2294,7 +2297,7 @@ mod tests {
     fn a_lone_triangle_is_forced_off_and_nothing_is_optimal() {
         let m = mesh(&[[0, 1, 2], [1, 2, 3]]);
         let w = vec![5.0, 5.0];
-        let input = SelectInput::new(&m.facets, &w, m.edges.len());
+        let input = SelectInput::new(&m.facets, &w, m.edges.len(), PROOF_NODE_LIMIT);
         let (sel, st) = run(&input);
         assert_eq!(sel, [false, false]);
         assert!(st.optimal && st.objective == 0.0);
@@ -2308,7 +2311,7 @@ mod tests {
         mask[0] = 0b001; // edge 01: the tetrahedron and the tent both need it
         let input = SelectInput {
             edge_mask: Some(&mask),
-            ..SelectInput::new(&m.facets, &w, m.edges.len())
+            ..SelectInput::new(&m.facets, &w, m.edges.len(), PROOF_NODE_LIMIT)
         };
         let (sel, st) = run(&input);
         assert!(sel.iter().all(|&s| !s) && st.optimal);
@@ -2417,7 +2420,7 @@ mod tests {
             let input = SelectInput {
                 edge_mask: Some(&mask),
                 edge_penalty: Some(&pens),
-                ..SelectInput::new(&fe, &w, ne)
+                ..SelectInput::new(&fe, &w, ne, PROOF_NODE_LIMIT)
             };
             let (_, st) = run(&input);
             let exact = brute(&input);
@@ -2440,7 +2443,7 @@ mod tests {
             let input = SelectInput {
                 edge_mask: Some(&mask),
                 edge_penalty: Some(&pens),
-                ..SelectInput::new(&fe, &w, ne)
+                ..SelectInput::new(&fe, &w, ne, PROOF_NODE_LIMIT)
             };
             let (_, st) = run(&input);
             let exact = brute(&input);
@@ -2462,7 +2465,7 @@ mod tests {
                 let input = SelectInput {
                     edge_mask: Some(&mask),
                     edge_penalty: Some(&pens),
-                    ..SelectInput::new(&fe, &w, ne)
+                    ..SelectInput::new(&fe, &w, ne, PROOF_NODE_LIMIT)
                 };
                 brute(&input)
             };
@@ -2470,8 +2473,7 @@ mod tests {
                 let input = SelectInput {
                     edge_mask: Some(&mask),
                     edge_penalty: Some(&pens),
-                    node_limit: limit,
-                    ..SelectInput::new(&fe, &w, ne)
+                    ..SelectInput::new(&fe, &w, ne, limit)
                 };
                 let (_, st) = run(&input);
                 assert!(st.nodes <= limit);
@@ -2507,7 +2509,7 @@ mod tests {
             ],
         ];
         for w in &sets {
-            let input = SelectInput::new(&m.facets, w, m.edges.len());
+            let input = SelectInput::new(&m.facets, w, m.edges.len(), PROOF_NODE_LIMIT);
             let (_, st) = run(&input);
             let exact = brute(&input);
             assert!(st.optimal, "{w:?}");
@@ -2522,7 +2524,7 @@ mod tests {
     #[test]
     fn cancellation_is_an_error() {
         let (m, w) = tetra_and_tent();
-        let input = SelectInput::new(&m.facets, &w, m.edges.len());
+        let input = SelectInput::new(&m.facets, &w, m.edges.len(), PROOF_NODE_LIMIT);
         let mut buf = vec![MaybeUninit::<u8>::uninit(); 1 << 16];
         let arena = Arena::new(&mut buf);
         let r = try_select_in(&arena, &input, &mut |_, _| false);
@@ -2540,70 +2542,100 @@ mod tests {
         let fe = [widen([0u32, 1, 2])];
         let w = [1.0f32];
         let is_bad = |e: Error| matches!(e, Error::BadParameter { .. });
-        assert!(is_bad(err(&SelectInput::new(&fe, &w, 2))));
-        assert!(is_bad(err(&SelectInput::new(&[widen([0, 1, 1])], &w, 3))));
+        assert!(is_bad(err(&SelectInput::new(&fe, &w, 2, PROOF_NODE_LIMIT))));
+        assert!(is_bad(err(&SelectInput::new(
+            &[widen([0, 1, 1])],
+            &w,
+            3,
+            PROOF_NODE_LIMIT
+        ))));
         assert!(is_bad(err(&SelectInput::new(
             &[widen([u32::MAX, 1, 2])],
             &w,
-            3
+            3,
+            PROOF_NODE_LIMIT
         ))));
         // Groups: out of range, repeated, or too few slots used.
         assert!(is_bad(err(&SelectInput::new(
             &[join([0, 1, 2], [0, 9, UNUSED], 3)],
             &w,
-            4
+            4,
+            PROOF_NODE_LIMIT
         ))));
         assert!(is_bad(err(&SelectInput::new(
             &[[0, 1, 2, 3, UNUSED, 1]],
             &w,
-            4
+            4,
+            PROOF_NODE_LIMIT
         ))));
         assert!(is_bad(err(&SelectInput::new(
             &[[UNUSED, 1, UNUSED, 3, UNUSED, UNUSED]],
             &w,
-            4
+            4,
+            PROOF_NODE_LIMIT
         ))));
         assert!(is_bad(err(&SelectInput::new(
             &[join([0, 1, 2], [0, 0, 0], UNUSED - 1)],
             &w,
-            4
+            4,
+            PROOF_NODE_LIMIT
         ))));
         // Slots may be used in any order.
-        let (sel, st) = run(&SelectInput::new(&[[UNUSED, 2, 3, UNUSED, 0, 1]], &w, 4));
+        let (sel, st) = run(&SelectInput::new(
+            &[[UNUSED, 2, 3, UNUSED, 0, 1]],
+            &w,
+            4,
+            PROOF_NODE_LIMIT,
+        ));
         assert!(sel == [false] && st.optimal);
-        assert!(is_bad(err(&SelectInput::new(&fe, &[f32::NAN], 3))));
-        assert!(is_bad(err(&SelectInput::new(&fe, &[f32::INFINITY], 3))));
-        assert!(is_bad(err(&SelectInput::new(&fe, &[], 3))));
+        assert!(is_bad(err(&SelectInput::new(
+            &fe,
+            &[f32::NAN],
+            3,
+            PROOF_NODE_LIMIT
+        ))));
+        assert!(is_bad(err(&SelectInput::new(
+            &fe,
+            &[f32::INFINITY],
+            3,
+            PROOF_NODE_LIMIT
+        ))));
+        assert!(is_bad(err(&SelectInput::new(
+            &fe,
+            &[],
+            3,
+            PROOF_NODE_LIMIT
+        ))));
         let masks = [[0b101u8, 0b101, 0b100], [0b101, 0b1101, 0b101]];
         for m in &masks {
             let input = SelectInput {
                 edge_mask: Some(m),
-                ..SelectInput::new(&fe, &w, 3)
+                ..SelectInput::new(&fe, &w, 3, PROOF_NODE_LIMIT)
             };
             assert!(is_bad(err(&input)));
         }
         let short = [0b101u8; 2];
         assert!(is_bad(err(&SelectInput {
             edge_mask: Some(&short),
-            ..SelectInput::new(&fe, &w, 3)
+            ..SelectInput::new(&fe, &w, 3, PROOF_NODE_LIMIT)
         })));
         for p in [[0.0f32, -1.0, 0.0], [0.0, f32::NAN, 0.0]] {
             assert!(is_bad(err(&SelectInput {
                 edge_penalty: Some(&p),
-                ..SelectInput::new(&fe, &w, 3)
+                ..SelectInput::new(&fe, &w, 3, PROOF_NODE_LIMIT)
             })));
         }
         // Empty problems are fine.
-        let (sel, st) = run(&SelectInput::new(&[], &[], 0));
+        let (sel, st) = run(&SelectInput::new(&[], &[], 0, PROOF_NODE_LIMIT));
         assert!(sel.is_empty() && st.optimal && st.objective == 0.0);
-        let (sel, st) = run(&SelectInput::new(&[], &[], 5));
+        let (sel, st) = run(&SelectInput::new(&[], &[], 5, PROOF_NODE_LIMIT));
         assert!(sel.is_empty() && st.optimal);
     }
 
     #[test]
     fn a_small_arena_is_exhausted_not_a_panic() {
         let (m, w) = tetra_and_tent();
-        let input = SelectInput::new(&m.facets, &w, m.edges.len());
+        let input = SelectInput::new(&m.facets, &w, m.edges.len(), PROOF_NODE_LIMIT);
         let need = select_bytes_for(&input);
         for n in [0, 7, need / 2, need / 4 * 3] {
             let mut buf = vec![MaybeUninit::<u8>::uninit(); n];
