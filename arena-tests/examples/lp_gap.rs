@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use arena_tests::load_shared_cloud;
 use good_lp::{microlp, variable, Expression, ProblemVariables, SolverModel};
-use vsaqem_core::select::{try_select_in, MASK_AT_MOST_ONE, UNUSED};
+use vsaqem_core::meshing::select::{try_select_in, MASK_AT_MOST_ONE, UNUSED};
 use vsaqem_core::{arena_bytes, cluster, selection_problem, Arena, Params, Silent};
 
 fn main() {

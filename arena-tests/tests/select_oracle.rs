@@ -1,4 +1,4 @@
-//! Oracle tests of facet selection (`vsaqem_core::select`): the
+//! Oracle tests of facet selection (`vsaqem_core::meshing::select`): the
 //! hand-written branch-and-bound against an exact MIP (good_lp + microlp).
 //!
 //! Properties checked, with edges only and with geometric fold groups (around
@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 use arena_tests::{load_shared_cloud, shared_clouds};
 use good_lp::solvers::{SolutionStatus, WithTimeLimit};
 use good_lp::{microlp, variable, Expression, ProblemVariables, Solution, SolverModel};
-use vsaqem_core::select::{
+use vsaqem_core::meshing::select::{
     select_bytes, try_select_in, widen, SelectInput, SelectStats, MASK_AT_MOST_ONE, MASK_BORDER,
     MASK_CLOSED, MAX_CONSTRAINTS, UNUSED,
 };
@@ -40,8 +40,7 @@ impl Instance {
         SelectInput {
             edge_mask: Some(&self.mask),
             edge_penalty: Some(&self.penalty),
-            node_limit,
-            ..SelectInput::new(&self.facets, &self.scores, self.edges)
+            ..SelectInput::new(&self.facets, &self.scores, self.edges, node_limit)
         }
     }
 

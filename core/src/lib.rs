@@ -62,7 +62,7 @@
 //!    and fold groups; [`border`](meshing::border): clusters where the data
 //!    ends.
 //! 6. [`score`](meshing::score): facet fitting and coverage (Eq. 9-10).
-//! 7. [`problem`](meshing::problem) and [`select`]: the exact 0/1 choice of
+//! 7. [`problem`](meshing::problem) and [`select`](meshing::select): the exact 0/1 choice of
 //!    facets under the edge rule (Eq. 7-8), by branch-and-bound.
 //! 8. [`output`](meshing::output): an oriented, edge- and vertex-manifold mesh;
 //!    small holes closed, loops along the data's border kept open.
@@ -96,7 +96,6 @@ pub mod validate;
 pub mod clustering;
 pub mod meshing;
 pub mod prepass;
-pub mod select;
 
 pub use arena::{Alloc, Arena, Exhausted, Scratch};
 pub use budget::{arena_bytes, clean_bytes, cluster_bytes, mesh_capacity};
@@ -108,12 +107,12 @@ pub use error::{Degeneracy, Error, Result};
 pub use math::V3;
 pub use meshing::output::{Mesh, MeshStats};
 pub use meshing::problem::{selection_problem, SelectionProblem};
+pub use meshing::select::SelectStats;
 pub use meshing::MeshingStats;
 pub use params::{Params, MAX_K};
 pub use prepass::clean::{clean, CleanStats};
 pub use prepass::smooth::{smooth, smooth_bytes};
 pub use progress::{Flow, Progress, Silent, Stage};
-pub use select::SelectStats;
 pub use validate::Bounds;
 
 use meshing::output::Output;

@@ -26,6 +26,7 @@ pub mod face_grid;
 pub mod output;
 pub mod problem;
 pub mod score;
+pub mod select;
 
 use crate::arena::Arena;
 use crate::clustering::knn::Neighbours;
@@ -35,8 +36,8 @@ use crate::error::Result;
 use crate::math::V3;
 use crate::params::Params;
 use crate::progress::{tick, Progress, Stage};
-use crate::select::{self, SelectStats};
 use output::{Mesh, MeshStats};
+use select::SelectStats;
 
 /// Statistics of the meshing half.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

@@ -21,9 +21,9 @@ use crate::clustering::quadric::Planes;
 use crate::clustering::Clustered;
 use crate::error::Result;
 use crate::math::V3;
+use crate::meshing::select;
 use crate::params::Params;
 use crate::progress::{tick, Progress, Silent, Stage};
-use crate::select;
 
 /// The facet-selection problem of one meshing round and what it was built from.
 pub(crate) struct Problem<'s> {
@@ -160,8 +160,7 @@ impl SelectionProblem<'_> {
         select::SelectInput {
             edge_mask: Some(self.masks),
             edge_penalty: Some(self.penalties),
-            node_limit,
-            ..select::SelectInput::new(self.rows, self.scores, self.masks.len())
+            ..select::SelectInput::new(self.rows, self.scores, self.masks.len(), node_limit)
         }
     }
 }

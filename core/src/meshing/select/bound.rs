@@ -1,0 +1,593 @@
+//! The Lagrangian bound (step 3 of the module docs): each undecided facet's
+//! score split into shares over its edges, each edge's best term from its cached
+//! top shares per class, and coordinate descent on the split (exact re-splits
+//! and smoothed sweeps at the root). Cost: O(incidences of an edge) to refresh
+//! its cache; O(incidences of a facet's edges) per re-split; O(I) per sweep.
+
+use super::solver::{Solver, ON, UNDECIDED};
+use super::{MAX_CONSTRAINTS, UNUSED};
+
+/// A re-split that moves no share by more than this (relative to the mean |score|
+/// of the component) is not propagated to the facet's edges.
+pub(super) const MIN_SHARE_MOVE: f64 = 1e-7;
+/// Coordinate-descent sweeps over a component at its root.
+const ROOT_SWEEPS: u32 = 30;
+/// Initial smoothing temperature at the root, relative to the mean |score|.
+const ROOT_TEMPERATURE: f64 = 0.1;
+/// Root sweeps between two halvings of the temperature.
+const SWEEPS_PER_COOLING: u32 = 10;
+/// Smallest temperature (relative to the mean |score|); below it, exact sweeps.
+const MIN_TEMPERATURE: f64 = 1e-4;
+/// Root sweeps between two runs of the rounding heuristic.
+const SWEEPS_PER_ROUNDING: u32 = 5;
+
+/// Best value of one edge alone: the maximum over degrees `d` allowed by `mask`
+/// with `selected ≤ d ≤ selected + undecided` of the sum of the `d − selected`
+/// best shares (`best ≥ second`, of distinct classes) minus `penalty` when
+/// `d = 1`, with that `d − selected`. `−∞` when no degree is reachable. Ties go
+/// to the smaller degree.
+pub(super) fn edge_term(
+    selected: u32,
+    undecided: u32,
+    mask: u8,
+    penalty: f64,
+    best: f64,
+    second: f64,
+) -> (f64, usize) {
+    let mut best_value = f64::NEG_INFINITY;
+    let mut best_taken = 0;
+    let top = selected.saturating_add(undecided).min(2);
+    let mut d = selected;
+    while d <= top {
+        if (mask >> d) & 1 == 1 {
+            let taken = (d - selected) as usize;
+            let take = match taken {
+                0 => 0.0,
+                1 => best,
+                _ => best + second,
+            };
+            let value = take - if d == 1 { penalty } else { 0.0 };
+            if value > best_value {
+                best_value = value;
+                best_taken = taken;
+            }
+        }
+        d += 1;
+    }
+    (best_value, best_taken)
+}
+
+/// From an edge's cache (`top[0..3]`: the best shares of its three best classes,
+/// at incidences `top_at`; `top[3]`, `top[4]`: the second best of the first two
+/// classes): once incidence `x` is left out, the best two shares of distinct
+/// classes, and the best share of a class other than `x`'s (`in_top_class`: `x`
+/// is in the class of `top_at[0]`).
+fn shares_without(
+    top_at: &[u32; 3],
+    top: &[f64; 5],
+    x: u32,
+    in_top_class: bool,
+) -> (f64, f64, f64) {
+    if x == top_at[0] {
+        // top[3], top[1], top[2] come from three distinct classes.
+        let (a, b, c) = (top[3], top[1], top[2]);
+        let highest = a.max(b).max(c);
+        let middle = if highest == a {
+            b.max(c)
+        } else if highest == b {
+            a.max(c)
+        } else {
+            a.max(b)
+        };
+        (highest, middle, top[1])
+    } else if x == top_at[1] {
+        (top[0], top[4].max(top[2]), top[0])
+    } else {
+        (top[0], top[1], if in_top_class { top[1] } else { top[0] })
+    }
+}
+
+/// The shares `t − c_i` of `score` with `k t = score + Σ c_i` over the
+/// `k = on_minus_off.len()` edges (`c = on_minus_off`), the last one taking the
+/// rounding so that they sum to `score` exactly as far as floating point allows.
+fn equalising_shares(score: f64, on_minus_off: &[f64]) -> [f64; MAX_CONSTRAINTS] {
+    let k = on_minus_off.len();
+    let t = on_minus_off.iter().fold(score, |a, &b| a + b) / k as f64;
+    let mut out = [0.0; MAX_CONSTRAINTS];
+    let mut rest = score;
+    for i in 0..k - 1 {
+        out[i] = t - on_minus_off[i];
+        rest -= out[i];
+    }
+    out[k - 1] = rest;
+    out
+}
+
+/// The state of one edge that its term depends on besides the shares.
+#[derive(Clone, Copy)]
+struct EdgeCounts {
+    /// Its selected facets.
+    selected: u32,
+    /// Its undecided facets.
+    undecided: u32,
+    /// Its allowed degrees.
+    mask: u8,
+    /// Its cost for ending with one facet.
+    penalty: f64,
+}
+
+impl EdgeCounts {
+    /// [`edge_term`] of this edge with best shares `best` and `second`.
+    fn term(self, best: f64, second: f64) -> (f64, usize) {
+        edge_term(
+            self.selected,
+            self.undecided,
+            self.mask,
+            self.penalty,
+            best,
+            second,
+        )
+    }
+}
+
+impl Solver<'_> {
+    /// Whether incidences `a` and `b` of one edge are in the same class.
+    fn same_class(&self, a: u32, b: u32) -> bool {
+        a == b
+            || (self.incidence_class[a as usize] == self.incidence_class[b as usize]
+                && self.incidence_class[a as usize] != UNUSED)
+    }
+
+    /// What edge `e`'s term depends on besides the shares.
+    fn edge_counts(&self, e: usize) -> EdgeCounts {
+        EdgeCounts {
+            selected: self.selected_count[e],
+            undecided: self.undecided_count[e],
+            mask: self.edge_mask(e),
+            penalty: self.edge_penalty(e),
+        }
+    }
+
+    /// Edge `e`'s best term with the facet of its undecided incidence `x` forced
+    /// on (not counting the facet's share), and with it forced off, from the
+    /// cached top shares; `counts` are the edge's.
+    fn forced_terms(&self, e: usize, x: u32, counts: EdgeCounts) -> (f64, f64) {
+        let EdgeCounts {
+            selected,
+            undecided,
+            mask,
+            penalty,
+        } = counts;
+        let (best, second, best_other_class) = self.edge_shares_without(e, x);
+        let on = edge_term(
+            selected + 1,
+            undecided - 1,
+            mask,
+            penalty,
+            best_other_class,
+            f64::NEG_INFINITY,
+        )
+        .0;
+        let off = edge_term(selected, undecided - 1, mask, penalty, best, second).0;
+        (on, off)
+    }
+
+    /// Recompute edge `e`'s best shares per class and its term from the state and
+    /// the shares. One pass: the incidences of a class are consecutive.
+    fn refresh_top_shares(&mut self, e: usize) {
+        let counts = self.edge_counts(e);
+        // The best share of the three best classes, each class's second best, and
+        // the incidences of the bests.
+        let mut best = [f64::NEG_INFINITY; 3];
+        let mut second = [f64::NEG_INFINITY; 3];
+        let mut best_at = [u32::MAX; 3];
+        let span = self.edge_span(e);
+        let mut k = span.start;
+        while k < span.end {
+            // One class: positions k..j.
+            let first = self.edge_incidences[k];
+            let mut j = k;
+            let (mut class_best, mut class_second, mut class_best_at) =
+                (f64::NEG_INFINITY, f64::NEG_INFINITY, u32::MAX);
+            while j < span.end && self.same_class(first, self.edge_incidences[j]) {
+                let x = self.edge_incidences[j];
+                j += 1;
+                if self.facet_state[self.facet_of(x)] != UNDECIDED {
+                    continue;
+                }
+                let share = self.shares[x as usize];
+                if share > class_best {
+                    (class_best, class_second, class_best_at) = (share, class_best, x);
+                } else if share > class_second {
+                    class_second = share;
+                }
+            }
+            k = j;
+            if class_best_at == u32::MAX {
+                continue;
+            }
+            if class_best > best[0] {
+                (best, second, best_at) = (
+                    [class_best, best[0], best[1]],
+                    [class_second, second[0], second[1]],
+                    [class_best_at, best_at[0], best_at[1]],
+                );
+            } else if class_best > best[1] {
+                (best, second, best_at) = (
+                    [best[0], class_best, best[1]],
+                    [second[0], class_second, second[1]],
+                    [best_at[0], class_best_at, best_at[1]],
+                );
+            } else if class_best > best[2] {
+                (best[2], second[2], best_at[2]) = (class_best, class_second, class_best_at);
+            }
+        }
+        self.edge_terms[e] = counts.term(best[0], best[1]).0;
+        self.top_incidences[e] = best_at;
+        self.top_shares[e] = [best[0], best[1], best[2], second[0], second[1]];
+    }
+
+    /// [`shares_without`] for incidence `x` of edge `e`.
+    fn edge_shares_without(&self, e: usize, x: u32) -> (f64, f64, f64) {
+        let top_at = &self.top_incidences[e];
+        let in_top_class = top_at[0] != u32::MAX && self.same_class(x, top_at[0]);
+        shares_without(top_at, &self.top_shares[e], x, in_top_class)
+    }
+
+    /// From edge `e`'s fresh top shares: for each undecided facet on it, whether
+    /// the edge picks it and what the edge's term loses if it is forced on / off.
+    fn refresh_marginals(&mut self, e: usize) {
+        let counts = self.edge_counts(e);
+        let (top_at, top) = (self.top_incidences[e], self.top_shares[e]);
+        let (term, taken) = counts.term(top[0], top[1]);
+        for k in self.edge_span(e) {
+            let x = self.edge_incidences[k];
+            let xi = x as usize;
+            let f = self.facet_of(x);
+            let bit = 1u8 << (x - self.facet_start[f]);
+            if self.facet_state[f] == UNDECIDED {
+                let (on_term, off) = self.forced_terms(e, x, counts);
+                let on = self.shares[xi] + on_term;
+                // An edge that no completion satisfies (two classes short) makes
+                // the bound −∞; its marginals are moot.
+                let finite = term.is_finite();
+                self.loss_if_on[xi] = if finite { term - on } else { 0.0 };
+                self.loss_if_off[xi] = if finite { term - off } else { 0.0 };
+                if top_at[..taken].contains(&x) {
+                    self.picked_by[f] |= bit;
+                } else {
+                    self.picked_by[f] &= !bit;
+                }
+            } else {
+                self.loss_if_on[xi] = 0.0;
+                self.loss_if_off[xi] = 0.0;
+                self.picked_by[f] &= !bit;
+            }
+        }
+    }
+
+    /// Recompute edge `e`'s whole cache.
+    fn refresh_edge(&mut self, e: usize) {
+        self.refresh_top_shares(e);
+        self.refresh_marginals(e);
+    }
+
+    /// Bring the marginals of the edges whose shares moved up to date.
+    pub(super) fn refresh_stale_marginals(&mut self) {
+        for i in 0..self.stale_len {
+            let e = self.stale_edges[i] as usize;
+            self.marginals_stale[e] = false;
+            self.refresh_marginals(e);
+        }
+        self.stale_len = 0;
+    }
+
+    /// Refresh the edges whose state changed and queue their undecided facets for
+    /// re-splitting.
+    pub(super) fn flush_changed_edges(&mut self) {
+        for i in 0..self.changed_len {
+            let e = self.changed_edges[i] as usize;
+            self.edge_changed[e] = false;
+            self.refresh_edge(e);
+            for k in self.edge_span(e) {
+                let f = self.facet_of(self.edge_incidences[k]);
+                if self.facet_state[f] == UNDECIDED {
+                    self.facet_queue.push(f);
+                }
+            }
+        }
+        self.changed_len = 0;
+    }
+
+    /// Bring the stale marginals up to date, then forget the changed edges and the
+    /// queued re-splits (before every edge is refreshed, or the problem closed).
+    fn drop_pending_updates(&mut self) {
+        self.refresh_stale_marginals();
+        for i in 0..self.changed_len {
+            self.edge_changed[self.changed_edges[i] as usize] = false;
+        }
+        self.changed_len = 0;
+        self.facet_queue.clear();
+    }
+
+    /// Refresh every edge of the current problem.
+    pub(super) fn refresh_all_edges(&mut self, edges: &[u32]) {
+        self.drop_pending_updates();
+        for &e in edges {
+            self.refresh_edge(e as usize);
+        }
+    }
+
+    /// Make (`facets`, `edges`) the current problem, with fresh caches.
+    pub(super) fn open_problem(&mut self, facets: &[u32], edges: &[u32]) {
+        for &e in edges {
+            self.edge_in_problem[e as usize] = true;
+        }
+        self.selected_score = 0.0;
+        for &f in facets {
+            let f = f as usize;
+            self.facet_in_problem[f] = true;
+            if self.facet_state[f] == ON {
+                self.selected_score += self.scores[f] as f64;
+            }
+        }
+        self.refresh_all_edges(edges);
+    }
+
+    /// End the current problem (`facets`, `edges`); no edge waits for a refresh after.
+    pub(super) fn close_problem(&mut self, facets: &[u32], edges: &[u32]) {
+        self.drop_pending_updates();
+        for &e in edges {
+            self.edge_in_problem[e as usize] = false;
+        }
+        for &f in facets {
+            self.facet_in_problem[f as usize] = false;
+        }
+    }
+
+    /// The Lagrangian bound of the current problem (caches must be fresh).
+    pub(super) fn bound(&self, edges: &[u32]) -> f64 {
+        edges
+            .iter()
+            .fold(self.selected_score, |a, &e| a + self.edge_terms[e as usize])
+    }
+
+    /// The bound lost by forcing undecided facet `f` on, by the cached marginals.
+    pub(super) fn loss_forced_on(&self, f: usize) -> f64 {
+        self.facet_incidences(f).map(|x| self.loss_if_on[x]).sum()
+    }
+
+    /// The bound lost by forcing undecided facet `f` off, by the cached marginals.
+    pub(super) fn loss_forced_off(&self, f: usize) -> f64 {
+        self.facet_incidences(f).map(|x| self.loss_if_off[x]).sum()
+    }
+
+    /// Undecided facets whose edges do not all agree on them.
+    pub(super) fn disagreements(&self, facets: &[u32]) -> u32 {
+        facets
+            .iter()
+            .filter(|&&f| {
+                self.facet_state[f as usize] == UNDECIDED && !self.edges_agree(f as usize)
+            })
+            .count() as u32
+    }
+
+    /// Coordinate descent on one facet, from the caches: re-split its score so that
+    /// its `k` edges value it equally, which exactly minimises the bound over its
+    /// shares (the others fixed): edge i's term is `max(off_i, λ_i + on_i)`, whose
+    /// sum under `Σ λ_i = w` is at least `Σ off_i + max(0, w + Σ (on_i − off_i))`,
+    /// reached when every `λ_i + on_i − off_i` is equal. A real change refreshes
+    /// its edges and queues the other facets on them.
+    pub(super) fn rebalance(&mut self, f: usize) {
+        let mut on_minus_off = [0.0f64; MAX_CONSTRAINTS];
+        let incidences = self.facet_incidences(f);
+        for (slot, x) in on_minus_off.iter_mut().zip(incidences) {
+            let e = self.incidence_edge[x] as usize;
+            let (on, off) = self.forced_terms(e, x as u32, self.edge_counts(e));
+            if !(on.is_finite() && off.is_finite()) {
+                return;
+            }
+            *slot = on - off;
+        }
+        self.set_shares(f, on_minus_off);
+    }
+
+    /// Set facet `f`'s shares to [`equalising_shares`] of its score and
+    /// `on_minus_off`, and when that moves them by more than `min_share_move`,
+    /// refresh its edges' top shares, mark their marginals stale and queue the
+    /// other undecided facets on them.
+    fn set_shares(&mut self, f: usize, on_minus_off: [f64; MAX_CONSTRAINTS]) {
+        let incidences = self.facet_incidences(f);
+        let new = equalising_shares(self.scores[f] as f64, &on_minus_off[..incidences.len()]);
+        let new = &new[..incidences.len()];
+        if new
+            .iter()
+            .zip(&self.shares[incidences.clone()])
+            .all(|(a, b)| (a - b).abs() <= self.min_share_move)
+        {
+            return;
+        }
+        self.shares[incidences].copy_from_slice(new);
+        for &e in self.edges_of(f) {
+            let e = e as usize;
+            self.refresh_top_shares(e);
+            if !self.marginals_stale[e] {
+                self.marginals_stale[e] = true;
+                self.stale_edges[self.stale_len] = e as u32;
+                self.stale_len += 1;
+            }
+            for k in self.edge_span(e) {
+                let g = self.facet_of(self.edge_incidences[k]);
+                if g != f && self.facet_state[g] == UNDECIDED {
+                    self.facet_queue.push(g);
+                }
+            }
+        }
+    }
+
+    /// Re-split queued facets of the problem, at most `cap` of them (the rest are
+    /// dropped from the queue), then refresh the marginals.
+    pub(super) fn resplit_queued(&mut self, cap: usize) {
+        let mut done = 0;
+        while let Some(f) = self.facet_queue.pop() {
+            if self.facet_state[f] == UNDECIDED && self.facet_in_problem[f] {
+                self.rebalance(f);
+                done += 1;
+                if done >= cap {
+                    self.facet_queue.clear();
+                    break;
+                }
+            }
+        }
+        self.refresh_stale_marginals();
+    }
+
+    /// One coordinate-descent sweep over all facets on the dual smoothed at
+    /// `temperature`: each edge's max becomes `temperature · log Σ exp(value /
+    /// temperature)` over its allowed choices, which makes the dual smooth, so the
+    /// descent cannot stall at a kink. Leaves the caches stale (refresh after).
+    fn smoothed_sweep(&mut self, facets: &[u32], temperature: f64) {
+        for &f in facets {
+            let f = f as usize;
+            if self.facet_state[f] != UNDECIDED {
+                continue;
+            }
+            let mut on_minus_off = [0.0f64; MAX_CONSTRAINTS];
+            let mut finite = true;
+            let incidences = self.facet_incidences(f);
+            for (slot, own) in on_minus_off.iter_mut().zip(incidences.clone()) {
+                let e = self.incidence_edge[own] as usize;
+                let own = own as u32;
+                let mut top_other = f64::NEG_INFINITY;
+                for k in self.edge_span(e) {
+                    let x = self.edge_incidences[k];
+                    if x != own && self.facet_state[self.facet_of(x)] == UNDECIDED {
+                        top_other = top_other.max(self.shares[x as usize]);
+                    }
+                }
+                let shift = if top_other.is_finite() {
+                    top_other
+                } else {
+                    0.0
+                };
+                // Elementary symmetric sums of exp((λ − shift) / temperature) over
+                // the others, pairs from distinct classes only (a class's sum joins
+                // at its end); `sum1_other_classes` leaves out the class of `own`.
+                let (mut sum1, mut sum2, mut sum1_other_classes) = (0.0f64, 0.0f64, 0.0f64);
+                let (mut class_sum, mut previous) = (0.0f64, u32::MAX);
+                for k in self.edge_span(e) {
+                    let x = self.edge_incidences[k];
+                    if previous != u32::MAX && !self.same_class(previous, x) {
+                        sum2 += class_sum * sum1;
+                        sum1 += class_sum;
+                        if !self.same_class(previous, own) {
+                            sum1_other_classes += class_sum;
+                        }
+                        class_sum = 0.0;
+                    }
+                    previous = x;
+                    if x != own && self.facet_state[self.facet_of(x)] == UNDECIDED {
+                        class_sum += libm::exp((self.shares[x as usize] - shift) / temperature);
+                    }
+                }
+                if previous != u32::MAX {
+                    sum2 += class_sum * sum1;
+                    sum1 += class_sum;
+                    if !self.same_class(previous, own) {
+                        sum1_other_classes += class_sum;
+                    }
+                }
+                let EdgeCounts {
+                    selected,
+                    undecided,
+                    mask,
+                    penalty,
+                } = self.edge_counts(e);
+                // temperature · log Σ_k sums[k] exp((k shift − penalty [d = 1]) /
+                // temperature), over the degrees d = base + k allowed.
+                let soft_max = |base: u32, spare: u32, sums: [f64; 3]| -> f64 {
+                    let mut terms = [f64::NEG_INFINITY; 3];
+                    let mut highest = f64::NEG_INFINITY;
+                    let mut d = base;
+                    while d <= base.saturating_add(spare).min(2) {
+                        let k = (d - base) as usize;
+                        if (mask >> d) & 1 == 1 && sums[k] > 0.0 {
+                            let cost = if d == 1 { penalty } else { 0.0 };
+                            let t = libm::log(sums[k]) + (k as f64 * shift - cost) / temperature;
+                            terms[k] = t;
+                            highest = highest.max(t);
+                        }
+                        d += 1;
+                    }
+                    if !highest.is_finite() {
+                        return f64::NEG_INFINITY;
+                    }
+                    let z: f64 = terms
+                        .iter()
+                        .filter(|t| t.is_finite())
+                        .map(|&t| libm::exp(t - highest))
+                        .sum();
+                    temperature * (highest + libm::log(z))
+                };
+                let on = soft_max(selected + 1, undecided - 1, [1.0, sum1_other_classes, 0.0]);
+                let off = soft_max(selected, undecided - 1, [1.0, sum1, sum2]);
+                finite &= on.is_finite() && off.is_finite();
+                *slot = on - off;
+            }
+            if finite {
+                let new =
+                    equalising_shares(self.scores[f] as f64, &on_minus_off[..incidences.len()]);
+                self.shares[incidences.clone()].copy_from_slice(&new[..incidences.len()]);
+            }
+        }
+    }
+
+    /// Coordinate descent at the component's root (problem open): smoothed sweeps
+    /// with a falling temperature, then exact ones. Returns the lowest bound seen;
+    /// improves `incumbent_value` by rounding, or exactly when the picks agree.
+    pub(super) fn root_bound(
+        &mut self,
+        facets: &[u32],
+        edges: &[u32],
+        incumbent_value: &mut f64,
+        tolerance: f64,
+    ) -> f64 {
+        let mut lowest = f64::INFINITY;
+        let mut temperature = ROOT_TEMPERATURE * self.score_scale;
+        for sweep in 0..ROOT_SWEEPS {
+            let current = self.bound(edges);
+            lowest = lowest.min(current);
+            if sweep % SWEEPS_PER_ROUNDING == SWEEPS_PER_ROUNDING - 1 {
+                if let Some(v) = self.round(facets, edges, *incumbent_value) {
+                    *incumbent_value = v;
+                }
+            }
+            if self.disagreements(facets) == 0 {
+                if current > *incumbent_value {
+                    self.record_agreed_picks(facets);
+                    *incumbent_value = current;
+                }
+                break;
+            }
+            if current <= *incumbent_value + tolerance {
+                break;
+            }
+            if sweep % SWEEPS_PER_COOLING == SWEEPS_PER_COOLING - 1 {
+                temperature *= 0.5;
+            }
+            if temperature < MIN_TEMPERATURE * self.score_scale {
+                for &f in facets {
+                    if self.facet_state[f as usize] == UNDECIDED {
+                        self.rebalance(f as usize);
+                    }
+                }
+                self.facet_queue.clear();
+                self.refresh_stale_marginals();
+            } else {
+                self.smoothed_sweep(facets, temperature);
+                self.refresh_all_edges(edges);
+            }
+        }
+        lowest
+    }
+}
