@@ -249,7 +249,7 @@ pub fn distance_to_mesh(p: V3, v: &[V3], triangles: &[[u32; 3]]) -> f32 {
     triangles
         .iter()
         .map(|t| {
-            vsaqem_core::meshing::score::point_triangle_dist2(
+            vsaqem_core::math::point_triangle_dist2(
                 p,
                 v[t[0] as usize],
                 v[t[1] as usize],

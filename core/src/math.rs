@@ -41,6 +41,80 @@ pub fn perpendicular(n: V3) -> V3 {
     cross(n, axis)
 }
 
+/// The point of triangle `(a, b, c)` nearest to `p`, and its barycentric
+/// coordinates `[u, v, w]` (`q = u a + v b + w c`), by the Voronoi regions of
+/// the vertices, edges and face. A degenerate triangle (zero area) gives its
+/// nearest vertex.
+pub fn closest_on_triangle(p: V3, a: V3, b: V3, c: V3) -> (V3, [f32; 3]) {
+    let ab = sub(b, a);
+    let ac = sub(c, a);
+    let ap = sub(p, a);
+    let d1 = dot(ab, ap);
+    let d2 = dot(ac, ap);
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return (a, [1.0, 0.0, 0.0]);
+    }
+    let bp = sub(p, b);
+    let d3 = dot(ab, bp);
+    let d4 = dot(ac, bp);
+    if d3 >= 0.0 && d4 <= d3 {
+        return (b, [0.0, 1.0, 0.0]);
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        let v = d1 / (d1 - d3);
+        let q = [a[0] + v * ab[0], a[1] + v * ab[1], a[2] + v * ab[2]];
+        return (q, [1.0 - v, v, 0.0]);
+    }
+    let cp = sub(p, c);
+    let d5 = dot(ab, cp);
+    let d6 = dot(ac, cp);
+    if d6 >= 0.0 && d5 <= d6 {
+        return (c, [0.0, 0.0, 1.0]);
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        let w = d2 / (d2 - d6);
+        let q = [a[0] + w * ac[0], a[1] + w * ac[1], a[2] + w * ac[2]];
+        return (q, [1.0 - w, 0.0, w]);
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        let bc = sub(c, b);
+        let q = [b[0] + w * bc[0], b[1] + w * bc[1], b[2] + w * bc[2]];
+        return (q, [0.0, 1.0 - w, w]);
+    }
+    let denom = va + vb + vc;
+    if denom == 0.0 || !denom.is_finite() {
+        // Degenerate triangle: the nearest vertex.
+        let (da, db, dc) = (dot(ap, ap), dot(bp, bp), dot(cp, cp));
+        return if da <= db && da <= dc {
+            (a, [1.0, 0.0, 0.0])
+        } else if db <= dc {
+            (b, [0.0, 1.0, 0.0])
+        } else {
+            (c, [0.0, 0.0, 1.0])
+        };
+    }
+    let v = vb / denom;
+    let w = vc / denom;
+    let q = [
+        a[0] + ab[0] * v + ac[0] * w,
+        a[1] + ab[1] * v + ac[1] * w,
+        a[2] + ab[2] * v + ac[2] * w,
+    ];
+    (q, [1.0 - v - w, v, w])
+}
+
+/// Squared distance from `p` to triangle `(a, b, c)` (see
+/// [`closest_on_triangle`]).
+pub fn point_triangle_dist2(p: V3, a: V3, b: V3, c: V3) -> f32 {
+    let (q, _) = closest_on_triangle(p, a, b, c);
+    let d = sub(p, q);
+    dot(d, d)
+}
+
 /// Squared distance, computed the same way everywhere so that ties compare exactly.
 #[inline]
 pub fn dist2(a: V3, b: V3) -> f32 {

@@ -18,7 +18,7 @@
 use crate::arena::Alloc;
 use crate::error::Result;
 use crate::math::V3;
-use crate::meshing::score::point_triangle_dist2;
+use crate::math::point_triangle_dist2;
 
 /// Entries (face, cell) per face at most, on average.
 pub const ENTRIES_PER_FACE: usize = 8;

@@ -23,7 +23,7 @@
 
 use crate::arena::Alloc;
 use crate::error::Result;
-use crate::math::{cross, dot, norm, sub, V3};
+use crate::math::{cross, dot, norm, point_triangle_dist2, sub, V3};
 use crate::meshing::candidates::{Candidates, Members};
 use crate::params::Params;
 
@@ -67,67 +67,6 @@ pub struct Scores<'a> {
     pub coverage: &'a [f32],
     /// Mean number of supports per facet (`S`).
     pub mean_supports: f32,
-}
-
-/// Squared distance from `p` to triangle `(a, b, c)` (closest point by Voronoi
-/// regions of the vertices, edges and face).
-pub fn point_triangle_dist2(p: V3, a: V3, b: V3, c: V3) -> f32 {
-    let ab = sub(b, a);
-    let ac = sub(c, a);
-    let ap = sub(p, a);
-    let d1 = dot(ab, ap);
-    let d2 = dot(ac, ap);
-    if d1 <= 0.0 && d2 <= 0.0 {
-        return dot(ap, ap);
-    }
-    let bp = sub(p, b);
-    let d3 = dot(ab, bp);
-    let d4 = dot(ac, bp);
-    if d3 >= 0.0 && d4 <= d3 {
-        return dot(bp, bp);
-    }
-    let vc = d1 * d4 - d3 * d2;
-    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        let v = d1 / (d1 - d3);
-        let q = [a[0] + v * ab[0], a[1] + v * ab[1], a[2] + v * ab[2]];
-        let d = sub(p, q);
-        return dot(d, d);
-    }
-    let cp = sub(p, c);
-    let d5 = dot(ab, cp);
-    let d6 = dot(ac, cp);
-    if d6 >= 0.0 && d5 <= d6 {
-        return dot(cp, cp);
-    }
-    let vb = d5 * d2 - d1 * d6;
-    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        let w = d2 / (d2 - d6);
-        let q = [a[0] + w * ac[0], a[1] + w * ac[1], a[2] + w * ac[2]];
-        let d = sub(p, q);
-        return dot(d, d);
-    }
-    let va = d3 * d6 - d5 * d4;
-    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
-        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-        let bc = sub(c, b);
-        let q = [b[0] + w * bc[0], b[1] + w * bc[1], b[2] + w * bc[2]];
-        let d = sub(p, q);
-        return dot(d, d);
-    }
-    let denom = va + vb + vc;
-    if denom == 0.0 || !denom.is_finite() {
-        // Degenerate triangle (never scored): fall back to the nearest vertex.
-        return dot(ap, ap).min(dot(bp, bp)).min(dot(cp, cp));
-    }
-    let v = vb / denom;
-    let w = vc / denom;
-    let q = [
-        a[0] + ab[0] * v + ac[0] * w,
-        a[1] + ab[1] * v + ac[1] * w,
-        a[2] + ab[2] * v + ac[2] * w,
-    ];
-    let d = sub(p, q);
-    dot(d, d)
 }
 
 /// Score every candidate facet.
