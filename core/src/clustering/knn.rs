@@ -24,6 +24,7 @@ use crate::arena::{padded_bytes, Alloc, Arena};
 use crate::error::{Error, Result};
 use crate::math::{dist2, V3};
 use crate::params::MAX_K;
+use crate::validate::Bounds;
 use crate::progress::{tick, Progress, Stage};
 
 /// The k-nearest-neighbour graph and its symmetrisation. See the module docs.
@@ -413,16 +414,8 @@ fn build_grid<'s>(
     k: usize,
 ) -> Result<Grid<'s>> {
     let n = points.len();
-    let mut lo = [f32::INFINITY; 3];
-    let mut hi = [f32::NEG_INFINITY; 3];
-    for p in points {
-        for a in 0..3 {
-            lo[a] = lo[a].min(p[a]);
-            hi[a] = hi[a].max(p[a]);
-        }
-    }
+    let Bounds { lo, hi, diag } = Bounds::of(points);
     let ext = [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]];
-    let diag = libm::sqrtf(ext[0] * ext[0] + ext[1] * ext[1] + ext[2] * ext[2]);
     let max_ext = ext[0].max(ext[1]).max(ext[2]);
     let order = s.try_alloc_slice::<u32>(n, 0)?;
     let sorted = s.try_alloc_slice::<V3>(n, [0.0; 3])?;
