@@ -105,11 +105,12 @@ pub use clustering::quadric::Planes;
 pub use clustering::{Clustered, Stats};
 pub use error::{Degeneracy, Error, Result};
 pub use math::V3;
+pub use meshing::distance::MeshDistance;
 pub use meshing::output::{Mesh, MeshStats};
 pub use meshing::problem::{selection_problem, SelectionProblem};
 pub use meshing::select::SelectStats;
 pub use meshing::MeshingStats;
-pub use params::{Params, MAX_K};
+pub use params::{Params, MAX_ERROR_ROUNDS, MAX_K};
 pub use prepass::clean::{clean, CleanStats};
 pub use prepass::smooth::{smooth, smooth_bytes};
 pub use progress::{Flow, Progress, Silent, Stage};
@@ -166,6 +167,13 @@ pub fn reconstruct<'a>(
         .used()
         .saturating_add(budget::reconstruct_bound(points.len(), params));
     let mut clustering = clustering::try_clustering_in(arena, points, normals, params, progress)?;
+    // Points may be at most this far from the mesh (just inside the bound, so
+    // that an evaluation in other units still finds it met).
+    let max_distance = if params.max_error > 0.0 {
+        params.max_error * clustering.bounds.diag * (1.0 - 1e-4)
+    } else {
+        f32::INFINITY
+    };
     // Clusters a round leaves without a face, for refinement: one buffer for all
     // rounds, so a round leaves nothing behind but, when it is the last, the mesh.
     let uncovered = arena.try_alloc_slice::<u32>(clustering.state.cap(), 0)?;
@@ -174,12 +182,13 @@ pub fn reconstruct<'a>(
     let mut last = false;
     let (mesh, meshing) = loop {
         // The last round writes the mesh out; an earlier one only when it covers
-        // every cluster (otherwise refinement follows and the mesh would be waste).
-        last |= rounds >= params.refine_rounds || clustering.state.room() == 0;
+        // every cluster and meets the error bound (otherwise refinement follows
+        // and the mesh would be waste).
+        last |= rounds >= params.refinement_rounds() || clustering.state.room() == 0;
         let output = if last {
             Output::Always
         } else {
-            Output::IfCovered
+            Output::IfFaithful { max_distance }
         };
         let (mesh, stats) = mesh_round_within(arena, end, || {
             meshing::try_mesh_round_in(
@@ -198,16 +207,20 @@ pub fn reconstruct<'a>(
         if let Some(mesh) = mesh {
             break (mesh, stats);
         }
-        let count = stats.mesh.uncovered_clusters as usize;
-        let more = clustering.state.refine(
-            arena,
-            points,
+        // Add generators at the points farthest beyond the bound, or else split
+        // the clusters left out (at their worst point).
+        let (n_out, n_far) = (stats.mesh.uncovered_clusters, stats.mesh.far_clusters);
+        let targets = &uncovered[..(n_out.max(n_far) as usize).min(uncovered.len())];
+        let (state, nb, planes) = (
+            &mut clustering.state,
             &clustering.neighbours,
             &clustering.planes,
-            &uncovered[..count.min(uncovered.len())],
-            params,
-            progress,
-        )?;
+        );
+        let more = if n_far > 0 {
+            state.refine_at(arena, points, nb, planes, targets, params, progress)?
+        } else {
+            state.refine(arena, points, nb, planes, targets, params, progress)?
+        };
         if more == 0 {
             // Nothing to split: this round's mesh is the answer. Make it again,
             // written out (same clusters, same mesh).

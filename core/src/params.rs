@@ -73,6 +73,13 @@ pub struct Params {
     /// Rounds of refinement where clusters are left out of the mesh (each round
     /// splits them and selects again). Default 0.
     pub refine_rounds: u32,
+    /// Error bound, as a fraction of the bounding-box diagonal: while some
+    /// point is farther than this from the mesh, the farthest point of each
+    /// such cluster becomes a generator and the mesh is made again, until every
+    /// point is within the bound, the cluster cap is reached or
+    /// [`MAX_ERROR_ROUNDS`] rounds have run ([`crate::MeshDistance`] in the
+    /// statistics says how far the result is). 0 (the default): no bound.
+    pub max_error: f32,
     /// Working memory reserved for a meshing round (candidate edges and facets,
     /// scores, selection, output), in bytes per cluster of the cap
     /// (`max_clusters`, or twice `clusters`), on top of 4 bytes per point: a
@@ -107,6 +114,11 @@ pub struct Params {
     pub smooth_rounds: u32,
 }
 
+/// Meshing rounds at most that an error bound ([`Params::max_error`]) runs
+/// after the first. Each adds a generator in every cluster with a point beyond
+/// the bound, so the cluster count can grow by that much per round.
+pub const MAX_ERROR_ROUNDS: u32 = 16;
+
 impl Default for Params {
     fn default() -> Self {
         Params {
@@ -128,6 +140,7 @@ impl Default for Params {
             border_angle: 150.0,
             node_limit: 200,
             refine_rounds: 0,
+            max_error: 0.0,
             mesh_bytes_per_cluster: 0,
             outlier_sigma: 0.0,
             min_fragment: 64,
@@ -137,6 +150,16 @@ impl Default for Params {
 }
 
 impl Params {
+    /// Meshing rounds refinement may run after the first: `refine_rounds`, or
+    /// at least [`MAX_ERROR_ROUNDS`] with an error bound.
+    pub fn refinement_rounds(&self) -> u32 {
+        if self.max_error > 0.0 {
+            self.refine_rounds.max(MAX_ERROR_ROUNDS)
+        } else {
+            self.refine_rounds
+        }
+    }
+
     /// The cluster cap splitting works towards.
     pub fn cluster_cap(&self) -> u32 {
         if self.max_clusters == 0 {
@@ -184,6 +207,9 @@ impl Params {
             if !(v.is_finite() && v >= 0.0) {
                 return bad(name, v);
             }
+        }
+        if !(self.max_error.is_finite() && self.max_error >= 0.0) {
+            return bad("max_error", self.max_error);
         }
         if !(self.outlier_sigma.is_finite() && self.outlier_sigma >= 0.0) {
             return bad("outlier_sigma", self.outlier_sigma);

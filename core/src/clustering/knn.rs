@@ -24,8 +24,8 @@ use crate::arena::{padded_bytes, Alloc, Arena};
 use crate::error::{Error, Result};
 use crate::math::{dist2, V3};
 use crate::params::MAX_K;
-use crate::validate::Bounds;
 use crate::progress::{tick, Progress, Stage};
+use crate::validate::Bounds;
 
 /// The k-nearest-neighbour graph and its symmetrisation. See the module docs.
 #[derive(Clone, Copy)]

@@ -259,6 +259,74 @@ impl<'a> ClusterState<'a> {
             }
             Ok(added)
         })?;
+        self.relax_after_adding(arena, &ctx, added, Some(params), progress)
+    }
+
+    /// Adds a generator at each point of `at` (a point index), as room under the
+    /// cap allows, then relaxes as [`ClusterState::refine`] does. A point that
+    /// seeds its cluster hands that on to the cluster's member of least cost
+    /// (O(n) each). Returns the generators added.
+    #[allow(clippy::too_many_arguments)]
+    pub fn refine_at(
+        &mut self,
+        arena: &Arena,
+        points: &[V3],
+        nb: &Neighbours,
+        planes: &Planes,
+        at: &[u32],
+        params: &Params,
+        progress: &mut dyn Progress,
+    ) -> Result<usize> {
+        let ctx = Ctx {
+            points,
+            nb,
+            planes,
+            lambda_w: params.lambda * planes.mean_weight,
+        };
+        let m = self.m;
+        let mut added = 0;
+        for &p in at {
+            if m + added >= self.generators.len() {
+                break;
+            }
+            let (Some(&q), Some(&l)) = (points.get(p as usize), self.labels.get(p as usize)) else {
+                continue;
+            };
+            if self.seeds.get(l as usize) == Some(&p) {
+                // p seeds its cluster: that cluster takes its member of least
+                // cost instead, and p seeds the new one (a cluster of one
+                // point keeps it).
+                let g = self.generators[l as usize];
+                let other = (0..points.len())
+                    .filter(|&i| self.labels[i] == l && i != p as usize)
+                    .map(|i| (ctx.cost(i, g), i as u32))
+                    .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+                let Some((_, i)) = other else {
+                    continue;
+                };
+                self.seeds[l as usize] = i;
+            }
+            self.generators[m + added] = q;
+            self.seeds[m + added] = p;
+            added += 1;
+        }
+        // The new generators stay on their points (no generator update): an
+        // update would pull them back towards where the mesh was too far from
+        // the data.
+        self.relax_after_adding(arena, &ctx, added, None, progress)
+    }
+
+    /// Takes the `added` generators written after the first `m` into the
+    /// clustering: a new partition, then (with `params`)
+    /// `params.split_iterations` passes of partition and generator update.
+    fn relax_after_adding(
+        &mut self,
+        arena: &Arena,
+        ctx: &Ctx,
+        added: usize,
+        params: Option<&Params>,
+        progress: &mut dyn Progress,
+    ) -> Result<usize> {
         if added == 0 {
             return Ok(0);
         }
@@ -269,21 +337,23 @@ impl<'a> ClusterState<'a> {
             generators: &mut *self.generators,
             seeds: &mut *self.seeds,
         };
-        self.stats.energy = repartition(arena, &ctx, &mut st, grown)?;
-        let planned = self.stats.passes + params.split_iterations.max(1);
-        passes(
-            arena,
-            &ctx,
-            &mut st,
-            grown,
-            params.split_iterations,
-            &mut self.stats,
-            progress,
-            planned,
-        )?;
+        self.stats.energy = repartition(arena, ctx, &mut st, grown)?;
+        if let Some(params) = params {
+            let planned = self.stats.passes + params.split_iterations.max(1);
+            passes(
+                arena,
+                ctx,
+                &mut st,
+                grown,
+                params.split_iterations,
+                &mut self.stats,
+                progress,
+                planned,
+            )?;
+        }
         self.stats.clusters = grown as u32;
         self.stats.max_error = relative(
-            split::max_error2(&ctx, self.labels, &self.generators[..grown]),
+            split::max_error2(ctx, self.labels, &self.generators[..grown]),
             Bounds::of(ctx.points).diag,
         );
         Ok(added)

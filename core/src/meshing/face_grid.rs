@@ -17,8 +17,8 @@
 
 use crate::arena::Alloc;
 use crate::error::Result;
-use crate::math::V3;
 use crate::math::point_triangle_dist2;
+use crate::math::V3;
 
 /// Entries (face, cell) per face at most, on average.
 pub const ENTRIES_PER_FACE: usize = 8;
@@ -258,7 +258,19 @@ impl<'a> FaceGrid<'a> {
                 }
                 return best;
             }
-            self.visit_ring(cell, r, |f| offer(f, &mut best));
+            let found = core::cell::Cell::new(best);
+            self.visit_ring(
+                p,
+                cell,
+                r,
+                || found.get().map_or(f32::INFINITY, |(_, d2)| d2),
+                |f| {
+                    let mut b = found.get();
+                    offer(f, &mut b);
+                    found.set(b);
+                },
+            );
+            best = found.get();
             // Every face not yet seen lies at least r h away.
             let bound = r as f32 * self.h;
             match best {
@@ -271,21 +283,38 @@ impl<'a> FaceGrid<'a> {
     }
 
     /// Calls `f` for every face entered in a cell at Chebyshev distance exactly
-    /// `r` from `c` (cells outside the grid hold nothing).
-    fn visit_ring(&self, c: [i64; 3], r: i64, mut f: impl FnMut(u32)) {
+    /// `r` from `c` (cells outside the grid hold nothing) whose box is nearer to
+    /// `p` than `sqrt(near2())` (asked again before each cell, so a nearer face
+    /// found on the way prunes the rest).
+    fn visit_ring(
+        &self,
+        p: V3,
+        c: [i64; 3],
+        r: i64,
+        near2: impl Fn() -> f32,
+        mut f: impl FnMut(u32),
+    ) {
         let inside = |v: i64, k: usize| v >= 0 && v < self.dims[k] as i64;
+        // Squared distance from p to cell v's slab along axis k.
+        let gap2 = |v: i64, k: usize| {
+            let lo = self.origin[k] + v as f32 * self.h;
+            let d = (lo - p[k]).max(p[k] - (lo + self.h)).max(0.0);
+            d * d
+        };
         for x in c[0] - r..=c[0] + r {
             if !inside(x, 0) {
                 continue;
             }
+            let gx = gap2(x, 0);
             for y in c[1] - r..=c[1] + r {
                 if !inside(y, 1) {
                     continue;
                 }
+                let gxy = gx + gap2(y, 1);
                 let edge = (x - c[0]).abs() == r || (y - c[1]).abs() == r;
                 let mut z = c[2] - r;
                 while z <= c[2] + r {
-                    if inside(z, 2) {
+                    if inside(z, 2) && gxy + gap2(z, 2) < near2() {
                         for face in self.cell([x as u32, y as u32, z as u32]) {
                             f(face);
                         }

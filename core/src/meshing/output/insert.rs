@@ -1,0 +1,138 @@
+//! Skipped clusters: generators the selection jumped over, put back into the
+//! mesh.
+
+use super::face_normal;
+use crate::arena::Alloc;
+use crate::error::Result;
+use crate::math::{closest_on_triangle, dist2, dot, V3};
+use crate::meshing::candidates::{degenerate, Members};
+
+/// Below this barycentric coordinate, a skipped cluster's generator goes into
+/// the edge opposite it rather than into the face.
+const EDGE_BARYCENTRIC: f32 = 0.15;
+
+/// Every cluster with points that no face uses, and that no face could be
+/// split to reach, is left out; the others are inserted.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct Inserted {
+    /// Generators put into the mesh.
+    pub clusters: u32,
+    /// Clusters with points that no face uses even so: no face, or every
+    /// split there would give a degenerate or folded face.
+    pub left_out: u32,
+}
+
+/// Puts into the mesh the generator of every cluster with points that no face
+/// of `faces[..nf]` uses (the selection joined its neighbours straight across
+/// it, cutting off the data there): into its nearest face, split in three, or,
+/// when it lies nearest an edge of that face, into the edge, whose faces are
+/// each split in two. A split that would make a degenerate face (edge or area
+/// below `tol`) or turn a face over (its normal against the face it replaces)
+/// is not made. Windings are kept, so orientation and edge-manifoldness hold.
+/// `faces` must have room for two more faces per insertion; clusters beyond
+/// that room are left out. Cost: O(faces) per skipped cluster.
+pub(super) fn insert_skipped<'b, S: Alloc<'b>>(
+    s: &S,
+    faces: &mut [[u32; 3]],
+    nf: usize,
+    generators: &[V3],
+    members: &Members,
+    tol: f32,
+) -> Result<(usize, Inserted)> {
+    let m = generators.len();
+    s.scratch(|t| {
+        let used = t.try_alloc_slice::<bool>(m, false)?;
+        for f in &faces[..nf] {
+            for &c in f {
+                if let Some(u) = used.get_mut(c as usize) {
+                    *u = true;
+                }
+            }
+        }
+        let pos = |c: u32| generators.get(c as usize).copied().unwrap_or([0.0; 3]);
+        let normal = |f: [u32; 3]| face_normal(f.map(pos));
+        let sound = |new: &[[u32; 3]], old: [u32; 3]| {
+            let n = normal(old);
+            new.iter().all(|&f| {
+                let [a, b, c] = f.map(pos);
+                !degenerate(a, b, c, tol) && dot(normal(f), n) > 0.0
+            })
+        };
+        let mut nf = nf;
+        let mut out = Inserted::default();
+        for j in 0..m.min(members.len()) {
+            if used[j] || members.of(j).is_empty() {
+                continue;
+            }
+            let g = generators[j];
+            let j = j as u32;
+            // The nearest face (lowest index among equals).
+            let mut nearest: Option<(usize, f32, [f32; 3])> = None;
+            for (f, face) in faces[..nf].iter().enumerate() {
+                let [a, b, c] = face.map(pos);
+                let (q, bary) = closest_on_triangle(g, a, b, c);
+                let d2 = dist2(g, q);
+                if nearest.is_none_or(|(_, e, _)| d2 < e) {
+                    nearest = Some((f, d2, bary));
+                }
+            }
+            let Some((f, _, bary)) = nearest else {
+                out.left_out += 1;
+                continue;
+            };
+            if nf + 2 > faces.len() {
+                out.left_out += 1;
+                continue;
+            }
+            let [a, b, c] = faces[f];
+            let in_face = [[a, b, j], [b, c, j], [c, a, j]];
+            // The edge opposite the smallest coordinate.
+            let k = (0..3)
+                .min_by(|&x, &y| bary[x].total_cmp(&bary[y]))
+                .unwrap_or(0);
+            let (u, v) = (faces[f][(k + 1) % 3], faces[f][(k + 2) % 3]);
+            // The faces on edge u-v (one or two on a manifold mesh), each split
+            // in two around the new vertex, keeping its winding.
+            let mut on_edge = [usize::MAX; 2];
+            let mut halves = [[0u32; 3]; 4];
+            let mut count = 0;
+            for (h, face) in faces[..nf].iter().enumerate() {
+                let Some(i) = (0..3).find(|&i| {
+                    let (p, q) = (face[i], face[(i + 1) % 3]);
+                    (p == u && q == v) || (p == v && q == u)
+                }) else {
+                    continue;
+                };
+                if count == 2 {
+                    count = 3;
+                    break;
+                }
+                let (p, q, r) = (face[i], face[(i + 1) % 3], face[(i + 2) % 3]);
+                on_edge[count] = h;
+                halves[2 * count] = [p, j, r];
+                halves[2 * count + 1] = [j, q, r];
+                count += 1;
+            }
+            let edge_ok = count <= 2
+                && (0..count).all(|i| sound(&halves[2 * i..2 * i + 2], faces[on_edge[i]]));
+            let face_ok = sound(&in_face, faces[f]);
+            if edge_ok && (bary[k] < EDGE_BARYCENTRIC || !face_ok) {
+                for i in 0..count {
+                    faces[on_edge[i]] = halves[2 * i];
+                    faces[nf] = halves[2 * i + 1];
+                    nf += 1;
+                }
+            } else if face_ok {
+                faces[f] = in_face[0];
+                faces[nf] = in_face[1];
+                faces[nf + 1] = in_face[2];
+                nf += 2;
+            } else {
+                out.left_out += 1;
+                continue;
+            }
+            out.clusters += 1;
+        }
+        Ok((nf, out))
+    })
+}

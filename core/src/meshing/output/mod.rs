@@ -1,0 +1,582 @@
+//! From selected facets to an oriented, 2-manifold triangle mesh.
+//!
+//! - **Edge-manifold**: the selection gives every candidate edge 0 or 2 facets (1
+//!   where a border is allowed); a facet that would be an edge's third is dropped
+//!   and counted (never happens with a feasible selection).
+//! - **Orientation**: faces are flooded across shared edges so neighbours traverse
+//!   their common edge in opposite directions; each closed component is then turned
+//!   outward by the sign of its volume. A component that cannot be oriented
+//!   consistently (a Möbius band) is counted.
+//! - **Vertex-manifold**: the corners at one generator are grouped by the faces
+//!   that share an edge through it; a generator whose faces form several fans
+//!   becomes one vertex per fan (same position), so every vertex's faces form a
+//!   single fan.
+//! - **Holes**: the selection may leave an edge with one facet (at the border
+//!   penalty). Boundary loops of at most `max_hole` edges are closed by ears,
+//!   shortest new edge first, never degenerate and never reusing an edge the mesh
+//!   has, so edges keep at most two faces and the new faces follow the loop's
+//!   orientation.
+//! - **Twists**: edge constraints cannot see a fold-over between facets that share
+//!   no edge, so a selection can be non-orientable. The faces around an edge where
+//!   the orientation clashes are cut out (the two faces on each clashing edge)
+//!   and the hole closed again, at most three times.
+//! - No degenerate faces (dropped with the candidates), no duplicates (candidate
+//!   facets are distinct vertex triples; a filled triangle equal to an existing
+//!   face is refused), every vertex used.
+//!
+//! Memory: the mesh (12 bytes per vertex and per face) plus O(faces + candidate
+//! edges) scratch. Cost: linear in faces and edges.
+
+mod holes;
+mod insert;
+mod orient;
+#[cfg(test)]
+mod tests;
+
+use crate::arena::{Alloc, Arena};
+use crate::error::Result;
+use crate::math::{add, cross, dot, norm, sub, V3};
+use crate::meshing::candidates::{Candidates, Members};
+use crate::meshing::distance::{summarise, try_point_distances_in, MeshDistance};
+use crate::union_find::UnionFind;
+
+use holes::{fill_holes, Filled};
+use insert::insert_skipped;
+use orient::orient;
+
+/// Facts about the output mesh.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct MeshStats {
+    /// Vertices of the mesh.
+    pub vertices: u32,
+    /// Triangles of the mesh.
+    pub faces: u32,
+    /// Edges with exactly one face.
+    pub boundary_edges: u32,
+    /// Edge-connected components.
+    pub components: u32,
+    /// Components that could not be oriented consistently.
+    pub non_orientable: u32,
+    /// Generators where the surface pinched (their faces formed several fans):
+    /// all but the largest fan were cut out and the holes closed again.
+    pub pinches_repaired: u32,
+    /// Extra vertices made to separate fans at non-manifold generators that
+    /// pinch repair left (at the same position as the first: 0 is the aim).
+    pub split_vertices: u32,
+    /// Faces dropped because their edge already had two.
+    pub dropped_faces: u32,
+    /// Boundary loops closed by hole filling.
+    pub holes_filled: u32,
+    /// Faces added by hole filling.
+    pub filled_faces: u32,
+    /// Boundary loops left open (longer than the limit, or no admissible ear).
+    pub holes_left: u32,
+    /// Boundary loops kept open because they run along the border of the data.
+    pub open_loops: u32,
+    /// Orientation clashes cut out and closed again.
+    pub repairs: u32,
+    /// Clusters the selection skipped (no selected face used them) whose
+    /// generators were then inserted into the faces nearest to them.
+    pub inserted_clusters: u32,
+    /// Clusters (with points) that no face uses even so: uncovered parts of
+    /// the data (no face could be split to reach them without folding).
+    pub uncovered_clusters: u32,
+    /// Points in those clusters.
+    pub uncovered_points: u32,
+    /// How far the points are from the mesh (relative to the diagonal).
+    pub distance: MeshDistance,
+    /// Clusters with a point farther from the mesh than the round allowed
+    /// ([`Output::IfFaithful`]); 0 when it allowed any distance.
+    pub far_clusters: u32,
+}
+
+/// A triangle mesh in core coordinates.
+#[derive(Clone, Copy)]
+pub struct Mesh<'a> {
+    /// Vertex positions.
+    pub vertices: &'a [V3],
+    /// Triangles, counter-clockwise seen from outside for closed components.
+    pub triangles: &'a [[u32; 3]],
+    /// The cluster each vertex comes from.
+    pub vertex_cluster: &'a [u32],
+    /// Statistics.
+    pub stats: MeshStats,
+}
+
+const NO: u32 = u32::MAX;
+
+/// Rounds of cutting out orientation clashes at most.
+const REPAIRS: u32 = 3;
+
+/// Faces of an edge, found by binary search in the sorted `(edge key, face)` table.
+pub(super) fn faces_of(table: &[(u64, u32)], key: u64) -> &[(u64, u32)] {
+    let lo = table.partition_point(|x| x.0 < key);
+    let hi = lo + table[lo..].partition_point(|x| x.0 == key);
+    &table[lo..hi]
+}
+
+pub(super) fn key(u: u32, v: u32) -> u64 {
+    let (a, b) = if u < v { (u, v) } else { (v, u) };
+    ((a as u64) << 32) | b as u64
+}
+
+/// `(edge key, face)` for every edge of every face, sorted.
+pub(super) fn edge_table<'s, 'b, S: Alloc<'b>>(
+    s: &'s S,
+    faces: &[[u32; 3]],
+) -> Result<&'s [(u64, u32)]> {
+    let table = s.try_alloc_slice::<(u64, u32)>(3 * faces.len(), (0, 0))?;
+    for (f, t) in faces.iter().enumerate() {
+        for k in 0..3 {
+            table[3 * f + k] = (key(t[k], t[(k + 1) % 3]), f as u32);
+        }
+    }
+    table.sort_unstable();
+    Ok(table)
+}
+
+/// +1 if the cycle `c` runs `u -> v`, -1 if `v -> u`, 0 if it has no such edge.
+pub(super) fn dir(c: [u32; 3], u: u32, v: u32) -> i32 {
+    for k in 0..3 {
+        if c[k] == u && c[(k + 1) % 3] == v {
+            return 1;
+        }
+        if c[k] == v && c[(k + 1) % 3] == u {
+            return -1;
+        }
+    }
+    0
+}
+
+/// Marks in `cut` the faces to cut out at pinched generators: at each of the
+/// `m` generators whose corners fall into several fans (faces linked through
+/// manifold edges at it), every face of a fan other than the largest (ties: the
+/// first). Returns the pinched generators. O(F log F) time, O(F) scratch.
+fn mark_pinches<'b, S: Alloc<'b>>(
+    s: &S,
+    faces: &[[u32; 3]],
+    m: usize,
+    cut: &mut [bool],
+) -> Result<u32> {
+    s.scratch(|t| {
+        let nf = faces.len();
+        let table = edge_table(t, faces)?;
+        let mut fans = UnionFind::try_new_in(t, 3 * nf)?;
+        let corner = |f: u32, v: u32| -> u32 {
+            let k = faces[f as usize].iter().position(|&x| x == v).unwrap_or(0);
+            3 * f + k as u32
+        };
+        let mut i = 0;
+        while i < table.len() {
+            let k = table[i].0;
+            let run = faces_of(&table[i..], k);
+            if let [(_, f), (_, g)] = run {
+                for w in [(k >> 32) as u32, k as u32] {
+                    fans.union(corner(*f, w), corner(*g, w));
+                }
+            }
+            i += run.len().max(1);
+        }
+        let root = fans.into_roots();
+        let size = t.try_alloc_slice::<u32>(3 * nf, 0)?;
+        for &r in root.iter() {
+            size[r as usize] += 1;
+        }
+        // The largest fan at each generator, and whether it has another.
+        let best = t.try_alloc_slice::<u32>(m, NO)?;
+        let pinched = t.try_alloc_slice::<bool>(m, false)?;
+        for c in 0..3 * nf {
+            let (g, r) = (faces[c / 3][c % 3] as usize, root[c]);
+            let Some(b) = best.get_mut(g) else {
+                continue;
+            };
+            if *b == NO {
+                *b = r;
+            } else if *b != r {
+                pinched[g] = true;
+                if size[r as usize] > size[*b as usize] {
+                    *b = r;
+                }
+            }
+        }
+        for c in 0..3 * nf {
+            let g = faces[c / 3][c % 3] as usize;
+            if pinched.get(g).copied().unwrap_or(false) && root[c] != best[g] {
+                if let Some(x) = cut.get_mut(c / 3) {
+                    *x = true;
+                }
+            }
+        }
+        Ok(pinched.iter().filter(|&&p| p).count() as u32)
+    })
+}
+
+/// A face's normal, not normalised (twice its area long).
+pub(super) fn face_normal(p: [V3; 3]) -> V3 {
+    cross(sub(p[1], p[0]), sub(p[2], p[0]))
+}
+
+/// When [`try_mesh_in`] writes the mesh out.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Output {
+    /// Always.
+    Always,
+    /// Only when every cluster with points has a face and every point lies
+    /// within `max_distance` (absolute; infinite for no limit) of the mesh: a
+    /// round that falls short is redone after refinement, and its mesh would
+    /// be thrown away.
+    IfFaithful {
+        /// The largest distance from a point to the mesh allowed.
+        max_distance: f32,
+    },
+}
+
+/// Build the mesh of the `selected` candidate facets, closing boundary loops of
+/// at most `max_hole` edges (0: none). `diag` is the bounding-box diagonal (for
+/// the degeneracy tolerance of filled faces). Working memory comes from `work`;
+/// the result is allocated in `out` (which may be the same allocator), unless
+/// `output` says it is not wanted (then `None`, and `out` is untouched). The
+/// clusters with points but no face are written to the front of `uncovered`
+/// (their count is `stats.uncovered_clusters`), as far as it has room; when
+/// a distance bound is not met, the farthest point of each cluster beyond it
+/// instead (their count is `stats.far_clusters`).
+#[allow(clippy::too_many_arguments)]
+pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
+    out: &'o Arena<'b>,
+    work: &W,
+    points: &[V3],
+    cand: &Candidates,
+    members: &Members,
+    selected: &[bool],
+    generators: &[V3],
+    open: &[bool],
+    moved: &[V3],
+    max_hole: u32,
+    diag: f32,
+    output: Output,
+    uncovered: &mut [u32],
+) -> Result<(Option<Mesh<'o>>, MeshStats)> {
+    let m = generators.len();
+    let ne = cand.edges.len();
+    work.scratch(|s| -> Result<(Option<Mesh<'o>>, MeshStats)> {
+        // Faces (cluster triples); a face that would be an edge's third is dropped.
+        let keep = s.try_alloc_slice::<bool>(selected.len(), false)?;
+        let (nf, dropped, boundary0) = s.scratch(|t| -> Result<(usize, u32, usize)> {
+            let count = t.try_alloc_slice::<u8>(ne, 0)?;
+            let (mut nf, mut dropped) = (0usize, 0u32);
+            for (i, _) in selected.iter().enumerate().filter(|(_, &b)| b) {
+                let e = cand.facet_edges[i];
+                if e.iter().any(|&x| count[x as usize] >= 2) {
+                    dropped += 1;
+                    continue;
+                }
+                for &x in &e {
+                    count[x as usize] += 1;
+                }
+                keep[i] = true;
+                nf += 1;
+            }
+            Ok((nf, dropped, count.iter().filter(|&&c| c == 1).count()))
+        })?;
+        // Room for hole filling (the selection's boundary edges, then three per
+        // face removed by repairs) and for inserting skipped clusters (two each).
+        let fill_room = if max_hole > 0 {
+            boundary0 + 2 * nf + 16
+        } else {
+            0
+        };
+        let fill_end = nf + fill_room;
+        let faces = s.try_alloc_slice::<[u32; 3]>(fill_end + 2 * m, [0; 3])?;
+        for (w, i) in (0..selected.len()).filter(|&i| keep[i]).enumerate() {
+            faces[w] = cand.facets[i];
+        }
+        let tol = crate::meshing::candidates::COINCIDENT * diag;
+        let clash = s.try_alloc_slice::<bool>(faces.len(), false)?;
+        // Clusters on a boundary loop kept open (along the border of the data).
+        let along = s.try_alloc_slice::<bool>(m, false)?;
+        let mut nf = nf;
+        let mut filled = Filled::default();
+        let mut repaired = 0u32;
+        let (mut unpinched, mut pinched) = (0u32, 0u32);
+        let (components, non_orientable) = loop {
+            clash[..nf].fill(false);
+            let (components, non_orientable) = orient(s, &mut faces[..nf], generators, clash)?;
+            if max_hole == 0 {
+                break (components, non_orientable);
+            }
+            // Close the holes; a clash (the selection folded over somewhere, which
+            // edge constraints cannot see) is cut out and closed again, a few
+            // times at most.
+            let more = fill_holes(
+                s,
+                &mut faces[..fill_end],
+                nf,
+                generators,
+                open,
+                along,
+                max_hole,
+                tol,
+            )?;
+            filled.faces += more.faces;
+            filled.holes += more.holes;
+            filled.left = more.left;
+            filled.open = more.open;
+            nf += more.faces;
+            if non_orientable == 0 || repaired == REPAIRS {
+                // A generator whose faces form several fans (the surface pinched
+                // there) keeps its largest fan; the others are cut out and their
+                // holes closed without it, so no vertex needs splitting in place.
+                if unpinched < REPAIRS {
+                    clash[..nf].fill(false);
+                    let pinches = mark_pinches(s, &faces[..nf], m, clash)?;
+                    if pinches > 0 {
+                        unpinched += 1;
+                        pinched += pinches;
+                        let mut w = 0;
+                        for f in 0..nf {
+                            if !clash[f] {
+                                faces[w] = faces[f];
+                                w += 1;
+                            }
+                        }
+                        nf = w;
+                        continue;
+                    }
+                }
+                if more.faces > 0 {
+                    clash[..nf].fill(false);
+                    break orient(s, &mut faces[..nf], generators, clash)?;
+                }
+                break (components, non_orientable);
+            }
+            repaired += 1;
+            // Only the faces on both sides of a clashing edge go: cutting their
+            // whole neighbourhood opened holes too large to close (block, 250
+            // clusters: 27 % of the points left uncovered).
+            let mut w = 0;
+            for f in 0..nf {
+                if !clash[f] {
+                    faces[w] = faces[f];
+                    w += 1;
+                }
+            }
+            nf = w;
+        };
+        // A face none of whose edges has a second face (a stray triangle, or one
+        // left when the faces around it were cut out) is a hole no ear can close
+        // (its filling would repeat it): it goes.
+        let nf = s.scratch(|t| -> Result<usize> {
+            let table = edge_table(t, &faces[..nf])?;
+            let lone =
+                |f: &[u32; 3]| (0..3).all(|k| faces_of(table, key(f[k], f[(k + 1) % 3])).len() < 2);
+            let stray = t.try_alloc_slice::<bool>(nf, false)?;
+            for (f, x) in faces[..nf].iter().zip(stray.iter_mut()) {
+                *x = lone(f);
+            }
+            let mut w = 0;
+            for f in 0..nf {
+                if !stray[f] {
+                    faces[w] = faces[f];
+                    w += 1;
+                }
+            }
+            Ok(w)
+        })?;
+        // Clusters the selection skipped go into the mesh.
+        let (nf, inserted) = insert_skipped(s, faces, nf, generators, members, tol)?;
+        let faces = &mut faces[..nf];
+        // Vertex-manifold: union the corners at one generator across shared edges.
+        let table = edge_table(s, faces)?;
+        let mut fans = UnionFind::try_new_in(s, 3 * nf)?;
+        let corner = |f: usize, v: u32| -> u32 {
+            let k = faces[f].iter().position(|&x| x == v).unwrap_or(0);
+            (3 * f + k) as u32
+        };
+        let mut boundary = 0u32;
+        let on_boundary = s.try_alloc_slice::<bool>(m, false)?;
+        let mut i = 0;
+        while i < table.len() {
+            let k = table[i].0;
+            let run = faces_of(&table[i..], k);
+            match run {
+                [_] => {
+                    boundary += 1;
+                    for v in [(k >> 32) as usize, k as u32 as usize] {
+                        if let Some(b) = on_boundary.get_mut(v) {
+                            *b = true;
+                        }
+                    }
+                }
+                [(_, f), (_, g), ..] => {
+                    let (u, v) = ((k >> 32) as u32, k as u32);
+                    for w in [u, v] {
+                        fans.union(corner(*f as usize, w), corner(*g as usize, w));
+                    }
+                }
+                [] => {}
+            }
+            i += run.len().max(1);
+        }
+        // One output vertex per corner group, numbered in face order.
+        let fan = fans.into_roots();
+        let vertex_of_root = s.try_alloc_slice::<u32>(3 * nf, NO)?;
+        let mut nv = 0u32;
+        for c in 0..3 * nf {
+            let r = fan[c] as usize;
+            if vertex_of_root[r] == NO {
+                vertex_of_root[r] = nv;
+                nv += 1;
+            }
+        }
+        let used = s.try_alloc_slice::<bool>(m, false)?;
+        for face in faces.iter() {
+            for &cl in face {
+                used[cl as usize] = true;
+            }
+        }
+        let distinct = used.iter().filter(|&&u| u).count() as u32;
+        let mut uncovered_clusters = 0;
+        let mut uncovered_points = 0;
+        for j in 0..members.len().min(m) {
+            let size = members.of(j).len() as u32;
+            if size > 0 && !used[j] {
+                if let Some(slot) = uncovered.get_mut(uncovered_clusters) {
+                    *slot = j as u32;
+                }
+                uncovered_clusters += 1;
+                uncovered_points += size;
+            }
+        }
+        let stats = MeshStats {
+            vertices: nv,
+            faces: nf as u32,
+            boundary_edges: boundary,
+            components,
+            non_orientable,
+            pinches_repaired: pinched,
+            split_vertices: nv - distinct,
+            dropped_faces: dropped,
+            holes_filled: filled.holes,
+            repairs: repaired,
+            filled_faces: filled.faces as u32,
+            holes_left: filled.left,
+            open_loops: filled.open,
+            inserted_clusters: inserted.clusters,
+            uncovered_clusters: uncovered_clusters as u32,
+            uncovered_points,
+            distance: MeshDistance::default(),
+            far_clusters: 0,
+        };
+        let mut stats = stats;
+        let max_distance = match output {
+            // Without a distance bound, clusters left out are what refinement
+            // splits; with one, the points farthest from the mesh are.
+            Output::IfFaithful { max_distance }
+                if uncovered_clusters > 0 && max_distance.is_infinite() =>
+            {
+                return Ok((None, stats))
+            }
+            Output::IfFaithful { max_distance } => max_distance,
+            Output::Always => f32::INFINITY,
+        };
+        // The mesh is made in scratch and measured there; only a mesh that is
+        // wanted is copied out.
+        let vertices = s.try_alloc_slice::<V3>(nv as usize, [0.0; 3])?;
+        let vertex_cluster = s.try_alloc_slice::<u32>(nv as usize, 0)?;
+        let triangles = s.try_alloc_slice::<[u32; 3]>(nf, [0; 3])?;
+        for f in 0..nf {
+            for k in 0..3 {
+                let v = vertex_of_root[fan[3 * f + k] as usize];
+                let cl = faces[f][k];
+                let c = cl as usize;
+                // A border cluster's vertex on the boundary goes onto the data's border.
+                let to_border = on_boundary[c] && open.get(c).copied().unwrap_or(false);
+                vertices[v as usize] = match moved.get(c) {
+                    Some(&p) if to_border => p,
+                    _ => generators[c],
+                };
+                vertex_cluster[v as usize] = cl;
+                triangles[f][k] = v;
+            }
+        }
+        // A vertex on a loop kept open whose cluster was not seen as on the border
+        // (its neighbours left a narrower gap) also moves onto the data's border:
+        // outwards, away from its boundary faces, to its farthest point that way.
+        for v in 0..nv as usize {
+            let c = vertex_cluster[v] as usize;
+            if !(on_boundary[c] && along[c]) || open.get(c).copied().unwrap_or(false) {
+                continue;
+            }
+            let g = generators[c];
+            let mut d = [0.0f32; 3];
+            for &(k, f) in table.iter() {
+                let (a, b) = ((k >> 32) as usize, k as u32 as usize);
+                if (a != c && b != c) || faces_of(table, k).len() != 1 {
+                    continue;
+                }
+                let face = faces[f as usize].map(|x| generators[x as usize]);
+                let e = sub(generators[b], generators[a]);
+                let mut w = cross(e, face_normal(face));
+                let centroid = [0, 1, 2].map(|i| (face[0][i] + face[1][i] + face[2][i]) / 3.0);
+                if dot(w, sub(g, centroid)) < 0.0 {
+                    w = [-w[0], -w[1], -w[2]];
+                }
+                let l = norm(w);
+                if l > 0.0 && l.is_finite() {
+                    d = add(d, [w[0] / l, w[1] / l, w[2] / l]);
+                }
+            }
+            let l = norm(d);
+            if !(l > 0.0 && l.is_finite()) {
+                continue;
+            }
+            let d = [d[0] / l, d[1] / l, d[2] / l];
+            let reach = members
+                .of(c)
+                .iter()
+                .filter_map(|&i| points.get(i as usize))
+                .map(|&p| dot(sub(p, g), d))
+                .fold(0.0f32, f32::max);
+            vertices[v] = [0, 1, 2].map(|i| g[i] + reach * d[i]);
+        }
+        // How far the data is from this mesh; the farthest point of every
+        // cluster beyond `max_distance` goes to `uncovered` for refinement.
+        let far = s.scratch(|t| -> Result<u32> {
+            let d = t.try_alloc_slice::<f32>(points.len(), 0.0)?;
+            try_point_distances_in(t, points, vertices, triangles, d)?;
+            let mut far = 0usize;
+            for j in 0..members.len() {
+                let worst = members
+                    .of(j)
+                    .iter()
+                    .filter_map(|&i| Some((*d.get(i as usize)?, i)))
+                    .fold(None, |w: Option<(f32, u32)>, (e, i)| match w {
+                        Some((x, _)) if x >= e => w,
+                        _ => Some((e, i)),
+                    });
+                if let Some((e, i)) = worst {
+                    if e > max_distance {
+                        if let Some(slot) = uncovered.get_mut(far) {
+                            *slot = i;
+                        }
+                        far += 1;
+                    }
+                }
+            }
+            stats.distance = summarise(d, diag);
+            Ok(far as u32)
+        })?;
+        stats.far_clusters = far;
+        if far > 0 && max_distance.is_finite() {
+            return Ok((None, stats));
+        }
+        let mesh = Mesh {
+            vertices: out.try_alloc_copy(vertices)?,
+            triangles: out.try_alloc_copy(triangles)?,
+            vertex_cluster: out.try_alloc_copy(vertex_cluster)?,
+            stats,
+        };
+        Ok((Some(mesh), stats))
+    })
+}
