@@ -44,6 +44,12 @@ pub struct MeshArgs {
     /// Refinement rounds where parts of the data are left out of the mesh.
     #[arg(long, default_value_t = Params::default().refine_rounds)]
     pub refine_rounds: u32,
+    /// Error bound, fraction of the bounding-box diagonal (e.g. 0.005 = 0.5 %):
+    /// where a point is farther than this from the mesh, a vertex is added
+    /// there and the mesh made again, until every point is within it or the
+    /// cluster cap (--max-clusters) is reached; the report says which (0: off).
+    #[arg(long, value_name = "F", default_value_t = Params::default().max_error)]
+    pub max_error: f32,
     /// Working memory of a meshing round, in bytes per cluster of the cap
     /// (0: 400 times the square root of --knn, 1385 at k = 12). A candidate graph
     /// denser than that fails; raise it for clouds with few points per cluster.
@@ -88,6 +94,7 @@ impl Cmd {
             max_hole: self.mesh.max_hole,
             border_angle: self.mesh.border_angle,
             refine_rounds: self.mesh.refine_rounds,
+            max_error: self.mesh.max_error,
             mesh_bytes_per_cluster: self.mesh.mesh_bytes_per_cluster,
             ..self.clean.apply(self.cluster.params())
         }
@@ -129,9 +136,25 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
         input: InputReport::new(&input, points_read, stats.as_ref(), &params, diag),
         cluster: out.clustered.stats.cluster,
         tolerance: params.tolerance,
+        max_error: params.max_error,
+        cap: params.cluster_cap().min(input.points.len() as u32),
         meshing: out.meshing,
         run: RunReport::new(&clock, out.meshing.peak, arena_reserved, &cmd.output),
     };
+    if let Some(over) = report.max_error_missed() {
+        eprintln!(
+            "warning: {}: --max-error {} not met: the farthest point is {:.3}% of the \
+             diagonal from the mesh ({:.3}% over) after {} refinement rounds with {} \
+             clusters: {}",
+            input.name,
+            params.max_error,
+            out.meshing.mesh.distance.max * 100.0,
+            over * 100.0,
+            out.meshing.refine_rounds,
+            out.clustered.stats.cluster.clusters,
+            report.max_error_stop(),
+        );
+    }
     publish(&report.text(), cmd.report.as_deref(), || report.json()).map_err(|e| e.to_string())
 }
 
@@ -160,11 +183,53 @@ struct ReconstructReport {
     cluster: ClusterStats,
     /// `--tolerance`, as given (`cluster.tolerance` is the one used).
     tolerance: f32,
+    /// `--max-error` (0: no bound).
+    max_error: f32,
+    /// The cluster cap.
+    cap: u32,
     meshing: MeshingStats,
     run: RunReport,
 }
 
 impl ReconstructReport {
+    /// By how much the farthest point exceeds `--max-error` (relative), when
+    /// a bound was asked for and not met.
+    fn max_error_missed(&self) -> Option<f32> {
+        let max = self.meshing.mesh.distance.max;
+        (self.max_error > 0.0 && max > self.max_error).then_some(max - self.max_error)
+    }
+
+    /// Why refinement stopped short of `--max-error`.
+    fn max_error_stop(&self) -> &'static str {
+        if self.cluster.clusters >= self.cap {
+            "the cluster cap is reached (raise --max-clusters)"
+        } else if self.meshing.refine_rounds >= vsaqem_core::MAX_ERROR_ROUNDS {
+            "the most rounds an error bound runs"
+        } else {
+            "no vertex could be added where the mesh is too far"
+        }
+    }
+
+    fn distance_text(&self) -> String {
+        let d = &self.meshing.mesh.distance;
+        let bound = match self.max_error_missed() {
+            _ if self.max_error <= 0.0 => String::new(),
+            None => format!("; bound {:.3}% met", self.max_error * 100.0),
+            Some(over) => format!(
+                "; bound {:.3}% NOT met ({:.3}% over: {})",
+                self.max_error * 100.0,
+                over * 100.0,
+                self.max_error_stop()
+            ),
+        };
+        format!(
+            "distance   points to mesh: max {:.3}%, p99 {:.3}%, mean {:.4}% of the diagonal{bound}\n",
+            d.max * 100.0,
+            d.p99 * 100.0,
+            d.mean * 100.0
+        )
+    }
+
     fn text(&self) -> String {
         let cl = &self.cluster;
         let m = &self.meshing;
@@ -197,9 +262,10 @@ impl ReconstructReport {
              clusters   {} ({} initial, +{} by splitting, +{} by refinement in {} rounds), max error {:.3}% of the diagonal\n\
              candidates {} edges, {} facets ({} degenerate, {} fold groups, {} generators merged), {:.1} supports per facet\n\
              selection  {solver}, {} independent parts (largest {} facets), {} facets fixed by propagation\n\
-             mesh       {} vertices, {} faces, {} components, {closed}\n\
+             mesh       {} vertices, {} faces, {} components, {closed}; {} skipped clusters inserted\n\
+             {}\
              border     {} clusters on the border of the data, {} boundary loops kept open along it\n\
-             repair     {} holes closed with {} faces, {} left open; {} orientation clashes cut out; {} vertices split\n\
+             repair     {} holes closed with {} faces, {} left open; {} orientation clashes cut out; {} pinches re-meshed, {} vertices split\n\
              {}",
             self.input.text(),
             cl.clusters,
@@ -220,12 +286,15 @@ impl ReconstructReport {
             mesh.vertices,
             mesh.faces,
             mesh.components,
+            mesh.inserted_clusters,
+            self.distance_text(),
             m.border_clusters,
             mesh.open_loops,
             mesh.holes_filled,
             mesh.filled_faces,
             mesh.holes_left,
             mesh.repairs,
+            mesh.pinches_repaired,
             mesh.split_vertices,
             self.run.text(self.input.points, ""),
         )
@@ -262,6 +331,7 @@ impl ReconstructReport {
             .num("boundary_edges", mesh.boundary_edges as f64)
             .num("components", mesh.components as f64)
             .num("non_orientable_components", mesh.non_orientable as f64)
+            .num("pinches_repaired", mesh.pinches_repaired as f64)
             .num("split_vertices", mesh.split_vertices as f64)
             .num("border_clusters", m.border_clusters as f64)
             .num("open_loops", mesh.open_loops as f64)
@@ -269,8 +339,16 @@ impl ReconstructReport {
             .num("filled_faces", mesh.filled_faces as f64)
             .num("holes_left", mesh.holes_left as f64)
             .num("orientation_repairs", mesh.repairs as f64)
+            .num("inserted_clusters", mesh.inserted_clusters as f64)
             .num("uncovered_clusters", mesh.uncovered_clusters as f64)
-            .num("uncovered_points", mesh.uncovered_points as f64);
+            .num("uncovered_points", mesh.uncovered_points as f64)
+            .num("distance_max_relative", mesh.distance.max as f64)
+            .num("distance_p99_relative", mesh.distance.p99 as f64)
+            .num("distance_mean_relative", mesh.distance.mean as f64)
+            .num("max_error_relative", self.max_error as f64);
+        if self.max_error > 0.0 {
+            o.bool("max_error_met", self.max_error_missed().is_none());
+        }
         self.run.json(&mut o);
         o.finish() + "\n"
     }
