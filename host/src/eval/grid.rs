@@ -1,5 +1,5 @@
 //! A uniform grid of cubic cells over axis-aligned boxes, with an exact
-//! nearest-item ring search.
+//! nearest-item ring search and an enumeration of the overlapping pairs.
 
 use crate::geom::sub;
 
@@ -101,6 +101,35 @@ impl Grid {
             };
         }
         c
+    }
+
+    /// Calls `f(i, j)`, `i < j`, exactly once for every pair of items whose (closed)
+    /// boxes overlap: in the cell holding the lower corner of the two boxes'
+    /// intersection, which both boxes cover. O(sum over cells of items²).
+    pub(super) fn overlapping_pairs(
+        &self,
+        boxes: &[([f64; 3], [f64; 3])],
+        mut f: impl FnMut(u32, u32),
+    ) {
+        for z in 0..self.dims[2] {
+            for y in 0..self.dims[1] {
+                for x in 0..self.dims[0] {
+                    let id = x + self.dims[0] * (y + self.dims[1] * z);
+                    let items = &self.items[self.start[id] as usize..self.start[id + 1] as usize];
+                    for (k, &i) in items.iter().enumerate() {
+                        let a = &boxes[i as usize];
+                        for &j in &items[k + 1..] {
+                            let b = &boxes[j as usize];
+                            let overlap = (0..3).all(|c| a.0[c] <= b.1[c] && b.0[c] <= a.1[c]);
+                            let corner = [0, 1, 2].map(|c| a.0[c].max(b.0[c]));
+                            if overlap && self.cell_of(corner) == [x, y, z] {
+                                f(i.min(j), i.max(j));
+                            }
+                        }
+                    }
+                }
+            }
+        }
     }
 
     /// Squared distance from `p` to the box of cell `c`.

@@ -12,23 +12,33 @@
 //! - **topology**: edges, boundary and non-manifold edges, non-manifold vertices (more
 //!   than one fan of faces), components, orientation consistency, Euler characteristic,
 //!   degenerate and duplicate faces;
+//! - **validity**: pairs of faces that intersect other than where they share vertices
+//!   by index (exact predicates), coincident vertices, folded edges, small closed
+//!   components beside a large one ("bubbles"), the genus of each closed component, and
+//!   the verdict [`Evaluation::is_valid_solid`];
 //! - **triangle quality**: percentiles of the minimum angle of each face.
 //!
-//! Cost: O((P + S) · c + F log F) time, where P points and S samples each visit `c`
-//! grid items on average (a few dozen on scanned models), and O(P + S + F) memory.
+//! Cost: O((P + S) · c + F · k + F log F) time, where P points and S samples each visit
+//! `c` grid items on average (a few dozen on scanned models) and each face is tested
+//! against the `k` faces whose bounding boxes overlap its own (a dozen or two on a
+//! mesh), and O(P + S + F) memory.
 //! Queries are spread over the available cores; results do not depend on how many.
 
 mod distance;
 mod grid;
+mod intersect;
 mod quality;
 mod topology;
+mod validity;
 
 use crate::geom::{cross, dot, sub};
 use distance::{diagonal, mesh_to_point_distances, point_to_mesh_distances, stats};
 pub use distance::{dist2_point_triangle, sample_surface};
+pub use intersect::{faces_intersect, self_intersecting_pairs};
 pub use quality::min_angle_deg;
 use quality::quality;
 use topology::topology;
+use validity::validity;
 
 /// Surface samples of the mesh -> points direction unless told otherwise.
 pub const DEFAULT_SAMPLES: usize = 100_000;
@@ -40,6 +50,14 @@ pub const FAR_FRACTION: f64 = 0.01;
 /// A face whose doubled area is at most this fraction of its longest edge squared
 /// (i.e. whose largest angle is within about 1e-12 rad of 180°) counts as zero area.
 pub const ZERO_AREA: f64 = 1e-12;
+/// Two faces on an edge are folded when their normals, oriented consistently, are more
+/// than this many degrees apart: they lie almost on top of each other.
+pub const FOLD_DEG: f64 = 170.0;
+/// A closed component with fewer faces than this is a bubble when the mesh has a
+/// component [`BUBBLE_RATIO`] times larger.
+pub const BUBBLE_FACES: usize = 20;
+/// See [`BUBBLE_FACES`].
+pub const BUBBLE_RATIO: usize = 10;
 
 /// Summary of a set of distances (file units). All NaN when the set is empty.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -99,7 +117,8 @@ pub struct Topology {
     pub inconsistent_edges: usize,
     /// `referenced_vertices - edges + proper faces`.
     pub euler: i64,
-    /// Faces with a repeated index or zero area (see [`ZERO_AREA`]).
+    /// Faces with a repeated index, a non-finite coordinate or zero area (see
+    /// [`ZERO_AREA`]).
     pub degenerate_faces: usize,
     /// Faces with the same vertex set as an earlier face.
     pub duplicate_faces: usize,
@@ -112,6 +131,42 @@ impl Topology {
             && self.non_manifold_edges == 0
             && self.non_manifold_vertices == 0
             && self.inconsistent_edges == 0
+    }
+}
+
+/// Geometric checks of a solid, beyond the combinatorics of [`Topology`].
+///
+/// Faces with a repeated index, a non-finite coordinate or zero area (all counted in
+/// [`Topology::degenerate_faces`]) are left out of the intersection test.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Validity {
+    /// Pairs of faces that meet anywhere other than along the edge or at the vertex
+    /// they share by index ([`faces_intersect`]); exact. Touching counts, so does a
+    /// vertex of one at the position of a vertex of the other with another index.
+    pub self_intersecting_pairs: usize,
+    /// Vertices of proper faces at exactly the position of another such vertex,
+    /// counting all but one per position.
+    pub coincident_vertices: usize,
+    /// Edges whose two faces (or any two of its faces) lie almost on top of each
+    /// other: normals, oriented consistently, more than [`FOLD_DEG`] apart.
+    pub folded_edges: usize,
+    /// Closed components (no boundary edge) of fewer than [`BUBBLE_FACES`] faces in a
+    /// mesh with a component at least [`BUBBLE_RATIO`] times larger.
+    pub bubbles: usize,
+    /// Faces of those bubbles.
+    pub bubble_faces: usize,
+    /// Components without a boundary edge.
+    pub closed_components: usize,
+    /// The genus of each closed, consistently oriented, edge- and vertex-manifold
+    /// component, `(2 - χ) / 2` with its own Euler characteristic χ, the component with
+    /// most faces first: `[0]` for a sphere, `[1]` for a torus.
+    pub genus: Vec<u32>,
+}
+
+impl Validity {
+    /// The sum of [`Validity::genus`]: the handles of the closed components.
+    pub fn handles(&self) -> u64 {
+        self.genus.iter().map(|&g| u64::from(g)).sum()
     }
 }
 
@@ -130,7 +185,7 @@ pub struct Quality {
 
 /// Everything [`evaluate`] measures. Distances are in file units; divide by
 /// `diagonal` (or use [`Evaluation::rel`]) for fractions of the points' extent.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Evaluation {
     /// Input points.
     pub points: usize,
@@ -149,6 +204,8 @@ pub struct Evaluation {
     pub signed_volume: f64,
     /// Combinatorial checks.
     pub topology: Topology,
+    /// Geometric checks of a solid.
+    pub validity: Validity,
     /// Minimum-angle distribution.
     pub quality: Quality,
 }
@@ -157,6 +214,24 @@ impl Evaluation {
     /// `d` as a fraction of the points' bounding-box diagonal.
     pub fn rel(&self, d: f64) -> f64 {
         d / self.diagonal
+    }
+
+    /// A valid solid: faces, all proper (no degenerate, duplicate or out-of-range
+    /// face), forming a closed manifold ([`Topology::is_closed_manifold`]) with no
+    /// self-intersecting pair, coincident vertex, folded edge or bubble; and, when
+    /// `genus` is given, [`Validity::handles`] equal to it.
+    pub fn is_valid_solid(&self, genus: Option<u64>) -> bool {
+        let (t, v) = (&self.topology, &self.validity);
+        t.faces > 0
+            && t.is_closed_manifold()
+            && t.degenerate_faces == 0
+            && t.duplicate_faces == 0
+            && t.invalid_faces == 0
+            && v.self_intersecting_pairs == 0
+            && v.coincident_vertices == 0
+            && v.folded_edges == 0
+            && v.bubbles == 0
+            && genus.is_none_or(|g| g == v.handles())
     }
 }
 
@@ -189,7 +264,9 @@ pub fn evaluate(
     let to_mesh = stats(to_mesh);
     let to_points = stats(mesh_to_point_distances(points, &tris, samples));
 
-    let mut topology = topology(nv, &valid, &tris);
+    let surface = topology(vertices, &valid);
+    let validity = validity(vertices, &valid, &surface);
+    let mut topology = surface.topology;
     topology.faces = triangles.len();
     topology.invalid_faces = triangles.len() - valid.len();
     Evaluation {
@@ -207,6 +284,7 @@ pub fn evaluate(
             .map(|t| dot(t[0], cross(t[1], t[2])) / 6.0)
             .sum(),
         topology,
+        validity,
         quality: quality(&tris),
     }
 }
