@@ -25,12 +25,12 @@ Python is used only for benchmarks; this file is not part of vsaqem.
 """
 
 import argparse
-import json
 import sys
-import time
 
 import numpy as np
 import open3d as o3d
+
+from pipeline_steps import Steps
 
 
 def main() -> int:
@@ -50,14 +50,8 @@ def main() -> int:
 
     o3d.utility.random.seed(1)
     o3d.utility.set_verbosity_level(o3d.utility.VerbosityLevel.Error)
-    info = {"method": a.method, "n": a.n, "steps_s": {}}
-    t = time.perf_counter()
-
-    def step(name):
-        nonlocal t
-        now = time.perf_counter()
-        info["steps_s"][name] = round(now - t, 4)
-        t = now
+    steps = Steps(a.method, a.n)
+    info, step = steps.info, steps.done
 
     pcd = o3d.io.read_point_cloud(a.input)
     if len(pcd.points) == 0:
@@ -99,9 +93,7 @@ def main() -> int:
     if not o3d.io.write_triangle_mesh(a.output, mesh, write_ascii=False):
         raise SystemExit(f"{a.output}: Open3D could not write the mesh")
     step("write")
-    if a.info:
-        with open(a.info, "w") as f:
-            json.dump(info, f, indent=1)
+    steps.write(a.info)
     return 0
 
 
