@@ -35,14 +35,13 @@ next to the results:
 Python is used only for benchmarks; this file is not part of vsaqem.
 """
 
-import argparse
 import itertools
 import sys
 
 import numpy as np
 import pymeshlab
 
-from pipeline_steps import Steps
+from pipeline_common import Steps, arguments
 
 
 def average_spacing(v):
@@ -80,21 +79,13 @@ def average_spacing(v):
 
 
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--method", choices=["poisson", "bpa"], required=True)
-    ap.add_argument("input")
-    ap.add_argument("output")
-    ap.add_argument("n", type=int, help="target vertex count (2N triangles)")
+    ap = arguments(__doc__)
     ap.add_argument("--knn", type=int, default=15, help="neighbours for normals (15)")
     ap.add_argument("--smooth", type=int, default=2, help="normal smoothing iterations (2)")
-    ap.add_argument("--depth", type=int, default=8, help="Poisson octree depth (8)")
-    ap.add_argument("--trim", type=float, default=0.02,
-                    help="Poisson: remove vertices below this density quantile (0.02)")
     ap.add_argument("--radii", default="1,2,4",
                     help="BPA: ball radii in multiples of the average spacing (1,2,4)")
     ap.add_argument("--max-hole", type=int, default=100,
                     help="BPA: close holes of up to this many edges (100)")
-    ap.add_argument("--info", help="write step times and counts here as JSON")
     a = ap.parse_args()
 
     steps = Steps(a.method, a.n)
