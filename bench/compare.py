@@ -1,22 +1,26 @@
 #!/usr/bin/env python3
 """The paper's comparison, rerun on any folder of point clouds.
 
-For every cloud, cluster count N and iteration count, runs `vsaqem reconstruct`
-and Open3D 0.20's two native pipelines (bench/o3d_pipeline.py: Poisson and ball
-pivoting, each decimated with Open3D's quadric decimation), each as a whole process
-whose wall time, CPU time and peak RSS are measured; scores every mesh with
-`vsaqem eval --json`; writes Markdown tables, JSON/CSV of every run, plots and
-side-by-side pictures into the results folder.
+For every cloud, cluster count N and iteration count, runs `vsaqem reconstruct`,
+Open3D 0.20's two native pipelines (bench/o3d_pipeline.py: Poisson and ball
+pivoting, each decimated with Open3D's quadric decimation) and MeshLab's
+(bench/meshlab_pipeline.py through PyMeshLab: screened Poisson at depths 8 and 10,
+ball pivoting with repair and hole closing, each decimated with MeshLab's quadric
+edge collapse), each as a whole process whose wall time, CPU time and peak RSS are
+measured; scores every mesh with `vsaqem eval --json` (distances, topology, and
+whether it is a valid solid); writes Markdown tables, JSON/CSV of every run, plots
+and side-by-side pictures into the results folder.
 
     python bench/compare.py                       # everything in ../shared/data/clouds
     python bench/compare.py --models bunny,block --clusters 250 --iterations 5
 
 Equal vertex count. vsaqem's splitting adds clusters where the error tolerance
 asks for them, so `--clusters N` can give up to 2N vertices. By default
-(`--o3d-target ours`) Open3D decimates to 2V triangles, V the largest vertex count
-vsaqem gave for that cloud and N over the iteration counts, so Open3D's mesh never
-has fewer vertices than the ones it is compared with. `--o3d-target clusters`
-decimates to 2N triangles instead. Every table states which was used.
+(`--o3d-target ours`) Open3D and MeshLab decimate to 2V triangles, V the largest
+vertex count vsaqem gave for that cloud and N over the iteration counts, so their
+meshes never have fewer vertices than the ones they are compared with.
+`--o3d-target clusters` decimates to 2N triangles instead. Every table states which
+was used.
 
 Python is used only for benchmarks; nothing here is part of vsaqem.
 """
@@ -37,7 +41,22 @@ BENCH = Path(__file__).resolve().parent
 REPO = BENCH.parent
 
 SYSTEMS_O3D = ["poisson", "bpa"]
-LABEL = {"poisson": "Open3D Poisson", "bpa": "Open3D BPA"}
+SYSTEMS_ML = ["ml-poisson8", "ml-poisson10", "ml-bpa"]
+# Every system other than ours, in table order.
+SYSTEMS_OTHER = SYSTEMS_O3D + SYSTEMS_ML
+LABEL = {"poisson": "Open3D Poisson", "bpa": "Open3D BPA", "ml-poisson8": "MeshLab Poisson d8",
+         "ml-poisson10": "MeshLab Poisson d10", "ml-bpa": "MeshLab BPA"}
+# The command line of each other system after the interpreter: pipeline, its options.
+PIPELINE = {"poisson": ("o3d_pipeline.py", ["--method", "poisson"]),
+            "bpa": ("o3d_pipeline.py", ["--method", "bpa"]),
+            "ml-poisson8": ("meshlab_pipeline.py", ["--method", "poisson", "--depth", "8"]),
+            "ml-poisson10": ("meshlab_pipeline.py", ["--method", "poisson", "--depth", "10"]),
+            "ml-bpa": ("meshlab_pipeline.py", ["--method", "bpa"])}
+# Panel labels in the pictures (vsaqem render prints the file name; long ones overlap).
+TILE_NAME = {"poisson": "Poisson", "bpa": "BPA", "ml-poisson8": "ML-P8", "ml-poisson10": "ML-P10",
+             "ml-bpa": "ML-BPA"}
+# The derived row "MeshLab best": per model and N, the MeshLab mesh of lowest max distance.
+ML_BEST = "MeshLab best"
 # Up axis of the shared models for the pictures (y when not listed).
 UP = {"block": "z", "bolt": "x", "gear": "z", "horse": "z", "kitten": "z", "rocker_arm": "x"}
 PICTURE_MODELS = "bunny,bolt,gear"
@@ -162,8 +181,8 @@ def run_one(a, model, cloud, system, n, o3d_n, work):
         rec["iterations"] = it
     else:
         report = d / f"{system}_{n}.info.json"
-        cmd = [a.python, BENCH / "o3d_pipeline.py", "--method", system, cloud, mesh,
-               o3d_n, "--info", report]
+        script, opts = PIPELINE[system]
+        cmd = [a.python, BENCH / script, *opts, cloud, mesh, o3d_n, "--info", report]
         rec["target_vertices"] = o3d_n
         rec["target_faces"] = 2 * o3d_n
     for f in (mesh, report):
@@ -200,7 +219,8 @@ def brief(rec):
     topo = ev["topology"]
     return (f"{rec['wall_s']:.2f} s, {rec['max_rss_kb'] / 1024:.0f} MB, "
             f"{topo['vertices']} v, max {100 * ev['point_to_mesh']['distance']['max_relative']:.2f} %"
-            f"{', closed manifold' if topo['closed_manifold'] else ''}")
+            f"{', closed manifold' if topo['closed_manifold'] else ''}"
+            f"{', valid solid' if valid_solid(rec) else ''}")
 
 
 # ---------------------------------------------------------------- the run
@@ -228,12 +248,17 @@ def machine_info():
         info["open3d"] = version("open3d")
     except Exception:
         info["open3d"] = "not installed"
+    try:
+        from importlib.metadata import version
+        info["pymeshlab"] = version("pymeshlab")
+    except Exception:
+        info["pymeshlab"] = "not installed"
     return info
 
 
 def run_all(a, models, work):
     records = []
-    total = len(models) * len(a.clusters) * (len(a.iterations) + len(SYSTEMS_O3D))
+    total = len(models) * len(a.clusters) * (len(a.iterations) + len(SYSTEMS_OTHER))
     k = 0
     for model, cloud in models:
         for n in a.clusters:
@@ -246,7 +271,7 @@ def run_all(a, models, work):
                 mine.append(rec)
             verts = [r["eval"]["topology"]["vertices"] for r in mine if r["status"] == "ok"]
             o3d_n = max(verts) if a.o3d_target == "ours" and verts else n
-            for system in SYSTEMS_O3D:
+            for system in SYSTEMS_OTHER:
                 k += 1
                 rec = run_one(a, model, cloud, system, n, o3d_n, work)
                 log(f"[{k}/{total}] {model} N={n} {label(system)} (target {2 * o3d_n} faces): "
@@ -266,6 +291,35 @@ def max_rel(rec):
     return rec["eval"]["point_to_mesh"]["distance"]["max_relative"]
 
 
+def valid_solid(rec):
+    """`vsaqem eval`'s verdict: closed manifold, no self-intersecting pair, coincident
+    vertex, fold, bubble or degenerate face."""
+    return rec["eval"].get("validity", {}).get("valid_solid", False)
+
+
+def solid_mark(rec):
+    """`✓` for a valid solid, `*` for a closed manifold that is not one, else nothing."""
+    if valid_solid(rec):
+        return "✓"
+    return "*" if rec["eval"]["topology"]["closed_manifold"] else ""
+
+
+MARKS = ("`✓` marks a valid solid (closed manifold, no self-intersecting faces, coincident "
+         "vertices, folds or bubbles: `vsaqem eval`'s `valid_solid`), `*` a closed manifold "
+         "that is not one")
+
+
+def best_of(idx, model, n, systems):
+    """The run of lowest max distance among `systems` for (model, n), or None."""
+    ok = [x for s in systems if (x := idx.get((model, s, n))) and x["status"] == "ok"]
+    return min(ok, key=max_rel) if ok else None
+
+
+def short(system):
+    """A MeshLab system's label without "MeshLab ", for the derived row."""
+    return LABEL[system].removeprefix("MeshLab ")
+
+
 def cell(rec, fmt):
     if rec is None:
         return "not run"
@@ -279,22 +333,27 @@ def index(records):
 
 
 def systems_of(a):
-    return SYSTEMS_O3D + [ours(it) for it in a.iterations]
+    return SYSTEMS_OTHER + [ours(it) for it in a.iterations]
 
 
-def table(a, model, idx, fmt):
-    """Rows: systems; columns: cluster counts (the paper's Tables 1-3)."""
+def table(a, model, idx, fmt, ml_best=False):
+    """Rows: systems; columns: cluster counts (the paper's Tables 1-3). With `ml_best`,
+    a derived row after MeshLab's: its mesh of lowest max distance per column."""
     cols = a.clusters
     head = "| | " + " | ".join(f"{n}C" for n in cols) + " |\n|---|" + "---:|" * len(cols) + "\n"
     rows = []
     for s in systems_of(a):
         cells = [cell(idx.get((model, s, n)), fmt) for n in cols]
         rows.append(f"| {label(s)} | " + " | ".join(cells) + " |")
+        if ml_best and s == SYSTEMS_ML[-1]:
+            best = [best_of(idx, model, n, SYSTEMS_ML) for n in cols]
+            cells = [f"{fmt(b)} ({short(b['system'])})" if b else "all failed" for b in best]
+            rows.append(f"| {ML_BEST} | " + " | ".join(cells) + " |")
     return head + "\n".join(rows) + "\n"
 
 
 def max_table(a, model, idx):
-    return table(a, model, idx, lambda r: pct(max_rel(r)))
+    return table(a, model, idx, lambda r: pct(max_rel(r)) + solid_mark(r), ml_best=True)
 
 
 def model_table(a, model, points, idx):
@@ -303,13 +362,12 @@ def model_table(a, model, points, idx):
     out = [f"# {model} ({points:,} points)\n",
            "Maximum distance from the input points to the output mesh, % of the input's "
            "bounding-box diagonal (lower is better; `vsaqem eval`, exact point-triangle "
-           "distances). Columns: clusters asked of vsaqem (`--clusters`).\n",
+           "distances); " + MARKS + ". Columns: clusters asked of vsaqem (`--clusters`).\n",
            max_table(a, model, idx),
-           "\nVertices of each mesh (Open3D decimated to 2V triangles, V = "
+           "\nVertices of each mesh (Open3D and MeshLab decimated to 2V triangles, V = "
            + ("the largest vertex count vsaqem gave in the column" if a.o3d_target == "ours"
-              else "N") + "); `*` marks a closed manifold mesh:\n",
-           table(a, model, idx, lambda r: f"{r['eval']['topology']['vertices']}"
-                 + ("*" if r["eval"]["topology"]["closed_manifold"] else "")),
+              else "N") + "); " + MARKS + ":\n",
+           table(a, model, idx, lambda r: f"{r['eval']['topology']['vertices']}" + solid_mark(r)),
            "\nWhole-process wall time, s:\n",
            table(a, model, idx, lambda r: f"{r['wall_s']:.2f}"),
            "\nWhole-process peak RSS, MB:\n",
@@ -318,8 +376,27 @@ def model_table(a, model, points, idx):
 
 
 SUMMARY_HEAD = ("| model | N | system | vertices | max % | mean % | Chamfer % | watertight "
-                "| non-manifold vertices | time s | CPU s | peak RSS MB |\n"
-                "|---|---:|---|---:|---:|---:|---:|---|---:|---:|---:|---:|\n")
+                "| non-manifold vertices | valid solid | genus | time s | CPU s | peak RSS MB |\n"
+                "|---|---:|---|---:|---:|---:|---:|---|---:|---|---|---:|---:|---:|\n")
+
+
+def validity_text(ev):
+    """"yes", or "no" with what fails beyond the watertight column."""
+    v = ev.get("validity")
+    if v is None:
+        return "?"
+    if v["valid_solid"]:
+        return "yes"
+    why = [f"{v[k]} {k.replace('_', ' ')}" for k in
+           ("self_intersecting_pairs", "coincident_vertices", "folded_edges", "bubbles") if v[k]]
+    return "no" + (f" ({', '.join(why)})" if why else "")
+
+
+def genus_text(ev):
+    g = ev.get("validity", {}).get("genus")
+    if g is None:
+        return "?"
+    return "[" + ", ".join(map(str, g[:5])) + (f", +{len(g) - 5}" if len(g) > 5 else "") + "]"
 
 
 def summary_rows(a, models, idx):
@@ -335,7 +412,7 @@ def summary_rows(a, models, idx):
                 m = f"{r['max_rss_kb'] / 1024:.1f}" if "max_rss_kb" in r else ""
                 if r["status"] != "ok":
                     why = r.get("reason", "?").replace("|", "/")
-                    rows.append(f"| {model} | {n} | {label(s)} | failed: {why} | | | | | | "
+                    rows.append(f"| {model} | {n} | {label(s)} | failed: {why} | | | | | | | | "
                                 f"{t} | {c} | {m} |")
                     continue
                 ev = r["eval"]
@@ -348,7 +425,8 @@ def summary_rows(a, models, idx):
                 rows.append(f"| {model} | {n} | {label(s)} | {topo['vertices']} | "
                             f"{pct(d['max_relative'])} | {pct(d['mean_relative'])} | "
                             f"{pct(ev['chamfer_relative'])} | {wt} | "
-                            f"{topo['non_manifold_vertices']} | {t} | {c} | {m} |")
+                            f"{topo['non_manifold_vertices']} | {validity_text(ev)} | "
+                            f"{genus_text(ev)} | {t} | {c} | {m} |")
     return SUMMARY_HEAD + "\n".join(rows) + "\n"
 
 
@@ -374,6 +452,14 @@ def goal(a, models, idx):
                 p["o3d_max"] = max_rel(best)
             p["o3d_watertight"] = {x["system"]: x["eval"]["topology"]["closed_manifold"]
                                    for x in o3d_ok}
+            ml = best_of(idx, model, n, SYSTEMS_ML)
+            if ml:
+                p["ml_best"] = ml["system"]
+                p["ml_max"] = max_rel(ml)
+            p["ours_valid"] = p["ours_ok"] and valid_solid(r)
+            p["valid"] = {s: valid_solid(x) for s in SYSTEMS_OTHER
+                          if (x := idx.get((model, s, n))) and x["status"] == "ok"}
+            p["ml_win"] = p["ours_ok"] and ("ml_max" not in p or p["ours_max"] <= p["ml_max"])
             if p["ours_ok"] and "max_rss_kb" in r:
                 ran = [x for x in o3d_ok if "max_rss_kb" in x]
                 if ran:
@@ -389,19 +475,29 @@ def goal(a, models, idx):
 
 
 def goal_table(it, pairs):
-    head = ("| model | N | ours max % | best Open3D max % | at or below | ours: points in "
-            "clusters the mesh leaves out | ours watertight | Poisson / BPA watertight "
+    head = ("| model | N | ours max % | best Open3D max % | at or below | best MeshLab max % "
+            "| at or below | ours: points in clusters the mesh leaves out | ours watertight "
+            "| Poisson / BPA watertight | valid solids: ours / Open3D / MeshLab "
             "| time ratio | peak RSS ratio |\n"
-            "|---|---:|---:|---:|---|---:|---|---|---:|---:|\n")
+            "|---|---:|---:|---:|---|---:|---|---:|---|---|---|---:|---:|\n")
     rows = []
     for p in pairs:
         o = f"{pct(p['o3d_max'])} ({LABEL[p['o3d_best']].split()[1]})" if "o3d_max" in p else "both failed"
+        ml = f"{pct(p['ml_max'])} ({short(p['ml_best'])})" if "ml_max" in p else "all failed"
         wt = " / ".join(("yes" if p["o3d_watertight"][s] else "no")
                         if s in p["o3d_watertight"] else "failed" for s in SYSTEMS_O3D)
+
+        def solids(systems):
+            ran = [p["valid"][s] for s in systems if s in p["valid"]]
+            return f"{sum(ran)} of {len(ran)}"
+        valid = (f"{'yes' if p['ours_valid'] else 'no'} / {solids(SYSTEMS_O3D)} / "
+                 f"{solids(SYSTEMS_ML)}")
         rows.append(
             f"| {p['model']} | {p['n']} | {pct(p['ours_max']) if p['ours_ok'] else 'failed'} | {o} | "
-            f"{'yes' if p['win'] else '**no**'} | {p.get('ours_uncovered', '')} | "
+            f"{'yes' if p['win'] else '**no**'} | {ml} | {'yes' if p['ml_win'] else '**no**'} | "
+            f"{p.get('ours_uncovered', '')} | "
             f"{('yes' if p['ours_watertight'] else '**no**') if p['ours_ok'] else ''} | {wt} | "
+            f"{valid} | "
             + (f"{p['time_ratio']:.1f}x | {p['rss_ratio']:.1f}x |" if "time_ratio" in p else " | |"))
     return head + "\n".join(rows) + "\n"
 
@@ -442,6 +538,12 @@ def goal_text(it, pairs, per_it=None):
         + (" (other iteration counts: " + ", ".join(
             f"{w} of {m} at {i}" for i, (w, m) in per_it.items() if i != it) + ")"
            if per_it and len(per_it) > 1 else "") + ".",
+        f"- Maximum distance at or below MeshLab's best of its three pipelines: "
+        f"{sum(p['ml_win'] for p in pairs)} of {n} pairs.",
+        f"- Valid solids (`vsaqem eval`: closed manifold, no self-intersecting faces, coincident "
+        f"vertices, folds or bubbles): ours {sum(p['ours_valid'] for p in pairs)} of {n}; "
+        + "; ".join(f"{label(s)} {sum(p['valid'].get(s, False) for p in pairs)} of "
+                    f"{sum(s in p['valid'] for p in pairs)}" for s in SYSTEMS_OTHER) + ".",
         f"- Our meshes closed and manifold: {ours_wt} of {n} pairs; of the {len(o3d_not)} pairs "
         f"where neither Open3D mesh is, ours is in {ours_wt_where}.",
         f"- Whole-process wall time, Open3D / ours: {spread(tr)}; CPU time: {spread(cr)}. "
@@ -464,8 +566,9 @@ REPORT_KEYS = ("points", "clusters", "initial_clusters", "splits", "passes",
                "max_error_relative", "solver_optimal", "solver_gap", "solver_nodes", "vertices",
                "faces", "boundary_edges", "components", "holes_filled", "holes_left",
                "uncovered_clusters", "uncovered_points", "time_ms", "arena_peak_bytes",
-               # Open3D's --info
-               "steps_s", "poisson_vertices", "bpa_radii", "surface_faces")
+               # Open3D's and MeshLab's --info
+               "steps_s", "poisson_vertices", "bpa_radii", "surface_faces", "bpa_faces",
+               "normals_flipped")
 
 
 def slim_record(r):
@@ -485,6 +588,7 @@ def slim_record(r):
             "chamfer_relative": ev["chamfer_relative"],
             "hausdorff_relative": ev["hausdorff_relative"],
             "topology": ev["topology"],
+            "validity": ev.get("validity"),
             "min_angle_p5": ev.get("quality", {}).get("min_angle_p5")}
     return slim(out)
 
@@ -513,13 +617,20 @@ def per_model(a, models, idx, it):
         return fmt(lo) if fmt(lo) == fmt(hi) else f"{fmt(lo)}-{fmt(hi)}"
 
     head = (f"| model | points | ours ({it} it.) max % at " + " / ".join(map(str, a.clusters))
-            + " | best Open3D max % | ours at or below | watertight: ours / Poisson / BPA "
+            + " | best Open3D max % | ours at or below | best MeshLab max % "
+            "| watertight: ours / Poisson / BPA | valid solids: ours / Open3D / MeshLab "
             "| wall s: ours / Open3D | peak RSS MB: ours / Open3D |\n"
-            "|---|---:|---|---|---|---|---|---|\n")
+            "|---|---:|---|---|---|---|---|---|---|---|\n")
     rows = []
     for model, _ in models:
         mine = [idx.get((model, me, n)) for n in a.clusters]
         best, wins, o3d_t, o3d_m = [], 0, [], []
+        ml_best = [best_of(idx, model, n, SYSTEMS_ML) for n in a.clusters]
+        solids = {"ours": 0, "o3d": 0, "ml": 0}
+        for n in a.clusters:
+            for key, systems in (("ours", [me]), ("o3d", SYSTEMS_O3D), ("ml", SYSTEMS_ML)):
+                solids[key] += sum(valid_solid(x) for s in systems
+                                   if (x := idx.get((model, s, n))) and x["status"] == "ok")
         wt = {s: 0 for s in [me] + SYSTEMS_O3D}
         pts = next((r["eval"]["points"] for r in mine if r and r.get("eval")), 0)
         for n, r in zip(a.clusters, mine):
@@ -537,7 +648,10 @@ def per_model(a, models, idx, it):
         rows.append(
             f"| {model} | {pts:,} | {' / '.join(cells)} | "
             f"{' / '.join(pct(b) if b is not None else 'failed' for b in best)} | {wins} of {nb} | "
+            f"{' / '.join(pct(max_rel(b)) if b else 'failed' for b in ml_best)} | "
             f"{wt[me]} / {wt['poisson']} / {wt['bpa']} of {nb} | "
+            f"{solids['ours']} of {nb} / {solids['o3d']} of {len(SYSTEMS_O3D) * nb} / "
+            f"{solids['ml']} of {len(SYSTEMS_ML) * nb} | "
             f"{rng([r['wall_s'] for r in ok], lambda x: f'{x:.1f}')} / {rng(o3d_t, lambda x: f'{x:.1f}')} | "
             f"{rng([r['max_rss_kb'] / 1024 for r in ok if 'max_rss_kb' in r], lambda x: f'{x:.0f}')} / "
             f"{rng(o3d_m, lambda x: f'{x:.0f}')} |")
@@ -548,7 +662,9 @@ def write_csv(path, records):
     fields = ["model", "clusters", "system", "status", "reason", "vertices", "faces",
               "max_rel", "mean_rel", "p99_rel", "chamfer_rel", "hausdorff_rel",
               "closed_manifold", "boundary_edges", "non_manifold_edges",
-              "non_manifold_vertices", "components", "wall_s", "cpu_s", "max_rss_kb"]
+              "non_manifold_vertices", "components", "valid_solid", "self_intersecting_pairs",
+              "coincident_vertices", "folded_edges", "bubbles", "genus", "handles",
+              "wall_s", "cpu_s", "max_rss_kb"]
     with open(path, "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=fields)
         w.writeheader()
@@ -568,6 +684,13 @@ def write_csv(path, records):
                            non_manifold_edges=t["non_manifold_edges"],
                            non_manifold_vertices=t["non_manifold_vertices"],
                            components=t["components"])
+                v = ev.get("validity")
+                if v:
+                    row.update(valid_solid=v["valid_solid"],
+                               self_intersecting_pairs=v["self_intersecting_pairs"],
+                               coincident_vertices=v["coincident_vertices"],
+                               folded_edges=v["folded_edges"], bubbles=v["bubbles"],
+                               genus=" ".join(map(str, v["genus"])), handles=v["handles"])
             w.writerow(row)
 
 
@@ -639,7 +762,8 @@ def plots(a, models, idx, out):
 
     # Peak RSS and wall time per system (largest over the cluster counts).
     systems = systems_of(a)
-    sys_colours = ["#c44e52", "#8172b2", "#55a868", "#4c72b0", "#64b5cd", "#2b4c7e"]
+    sys_colours = ["#c44e52", "#8172b2", "#e1812c", "#937860", "#da8bc3", "#55a868", "#4c72b0",
+                   "#64b5cd", "#2b4c7e"]
     for key, unit, scale, fname, title in (
             ("max_rss_kb", "MB", 1 / 1024, "peak_memory.png", "whole-process peak RSS"),
             ("wall_s", "s", 1, "time.png", "whole-process wall time")):
@@ -796,7 +920,7 @@ def picture(a, model, cloud, idx, work, out):
 
     w, h = a.tile
     band = 24  # vsaqem render's label band: 7-pixel glyphs at scale 2 plus padding
-    rows = [ours(it) for it in a.iterations] + SYSTEMS_O3D
+    rows = [ours(it) for it in a.iterations] + SYSTEMS_OTHER
     tmp = work / model / "picture"
     shutil.rmtree(tmp, ignore_errors=True)
     tmp.mkdir(parents=True)
@@ -805,8 +929,8 @@ def picture(a, model, cloud, idx, work, out):
         for j, n in enumerate(a.clusters):
             r = idx.get((model, s, n))
             if r and r["status"] == "ok":
-                short = f"{s.replace('poisson', 'Poisson').replace('bpa', 'BPA')} {n}"
-                link = tmp / f"{short}.ply"
+                name = f"{TILE_NAME.get(s, s)} {n}"
+                link = tmp / f"{name}.ply"
                 link.symlink_to(Path(r["mesh"]).resolve())
                 names.append(link)
                 where.append((i, j))
@@ -862,18 +986,19 @@ def main():
     ap.add_argument("--clouds", type=Path, default=REPO.parent / "shared/data/clouds",
                     help="folder of point clouds (.ply/.xyz/.pcd); default ../shared/data/clouds")
     ap.add_argument("--models", type=parse_list, help="comma-separated file stems (default: all)")
-    ap.add_argument("--clusters", type=lambda s: parse_list(s, int), default=[250, 300, 500, 1000],
-                    help="comma-separated cluster counts (250,300,500,1000)")
+    ap.add_argument("--clusters", type=lambda s: parse_list(s, int), default=[250, 500, 1000, 2000],
+                    help="comma-separated cluster counts (250,500,1000,2000)")
     ap.add_argument("--iterations", type=lambda s: parse_list(s, int), default=[1, 5, 20],
                     help="comma-separated iteration counts of vsaqem (1,5,20)")
     ap.add_argument("--o3d-target", choices=["ours", "clusters"], default="ours",
-                    help="Open3D decimates to 2x our largest vertex count (ours) or to 2N (clusters)")
+                    help="Open3D and MeshLab decimate to 2x our largest vertex count (ours) or to "
+                         "2N (clusters)")
     ap.add_argument("--out", type=Path, default=BENCH / "results", help="results folder")
     ap.add_argument("--work", type=Path, default=BENCH / "out/compare",
                     help="meshes, reports and logs (not committed)")
     ap.add_argument("--vsaqem", type=Path, default=REPO / "target/release/vsaqem")
     ap.add_argument("--python", type=Path, default=Path(sys.executable),
-                    help="interpreter with Open3D for the Open3D pipelines")
+                    help="interpreter with Open3D and PyMeshLab for their pipelines")
     ap.add_argument("--timeout", type=float, default=600, help="seconds per process (600)")
     ap.add_argument("--pictures", type=parse_list, default=parse_list(PICTURE_MODELS),
                     help=f"models to draw side by side ({PICTURE_MODELS}; '' for none)")
@@ -907,7 +1032,8 @@ def main():
     info["load_before"] = os.getloadavg()
     info["started"] = time.strftime("%Y-%m-%d %H:%M:%S")
     log(f"vsaqem compare: {len(models)} models x clusters {a.clusters} x "
-        f"(ours at {a.iterations} iterations + Open3D Poisson, BPA); load {info['load_before']}")
+        f"(ours at {a.iterations} iterations + {', '.join(map(label, SYSTEMS_OTHER))}); "
+        f"load {info['load_before']}")
     saved = work / "records.json"
     if a.reuse:
         if not saved.exists():
@@ -939,6 +1065,13 @@ def main():
                 "orient_normals_consistent_tangent_plane(20); Poisson depth 8, vertices below "
                 "the 2 % density quantile removed; BPA radii r, 2r with r = 3 x mean "
                 "nearest-neighbour distance; simplify_quadric_decimation to 2V triangles",
+                "meshlab_pipeline": "normals: compute_normal_for_point_clouds k 15, 2 smoothing "
+                "iterations, oriented coherently (flipped as a whole if inward on average); "
+                "Poisson: screened Poisson depth 8 or 10, vertices below the 2 % density (vertex "
+                "quality) quantile removed; BPA: ball pivoting at radii r, 2r, 4r with r = mean "
+                "nearest-neighbour distance, non-manifold edges and vertices repaired, holes of up "
+                "to 100 edges closed; quadric edge collapse to 2V triangles (quality threshold "
+                "0.3, preserve normals, preserve topology, optimal placement)",
                 "vsaqem": "reconstruct --clusters N --iterations I, defaults otherwise (seed 1)"}
     with open(a.out / "runs.json", "w") as f:
         f.write('{"machine": ' + json.dumps(slim(info)) + ',\n"settings": ' + json.dumps(settings)
@@ -965,21 +1098,26 @@ def main():
     cmdline = "python bench/compare.py " + info.get("command", "")
     load = info["load_before"]
     summary = [
-        "# vsaqem vs Open3D 0.20\n",
+        "# vsaqem vs Open3D 0.20 and MeshLab (PyMeshLab)\n",
         f"Regenerate: `bash bench/compare.sh` (or `{cmdline.strip()}` in the venv it makes). "
         f"Run {info['started']} on {info.get('cpu', '?')} ({info['cpus']} cores, "
         f"{info.get('mem_gb', '?')} GB), vsaqem {info.get('vsaqem_commit', '?')}, "
-        f"Open3D {info['open3d']}, Python {info['python']}; the whole run took "
+        f"Open3D {info['open3d']}, PyMeshLab {info.get('pymeshlab', '?')}, Python {info['python']}; "
+        f"the whole run took "
         f"{info['run_s'] / 60:.1f} min; load average {load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f} "
         f"at the start, {info['load_after'][0]:.2f} at the end (2 = both cores busy).\n",
         "Open3D: " + settings["open3d_pipeline"].replace("2V", "2V" if a.o3d_target == "ours" else "2N")
         + (" (V: the largest vertex count vsaqem gave for the same cloud and N)." if a.o3d_target == "ours"
            else "."),
+        "MeshLab: " + settings["meshlab_pipeline"].replace("2V", "2V" if a.o3d_target == "ours" else "2N")
+        + "; \"MeshLab best\" is, per model and N, the MeshLab mesh of lowest max distance.",
         "vsaqem: `reconstruct --clusters N --iterations I`, other parameters at their defaults "
         "(seed 1; splitting may add up to N clusters). Every system is timed as a whole process "
         "(wall and CPU time; peak RSS as GNU time reports it); every mesh is scored by `vsaqem eval` "
         "against its input cloud. Distances are % of the cloud's bounding-box diagonal; "
-        "watertight = closed, edge- and vertex-manifold, consistently oriented.\n",
+        "watertight = closed, edge- and vertex-manifold, consistently oriented; valid solid = "
+        "watertight with no self-intersecting faces (exact test), coincident vertices, folds, "
+        "bubbles or degenerate faces.\n",
         "## Against the goal\n",
         goal_text(it, pairs, {i: wins_at(a, models, idx, i) for i in a.iterations}),
         "Per model (Open3D: both pipelines; watertight counts are of the cluster counts):\n",

@@ -24,40 +24,25 @@ The steps, with the parameters compare.py records next to the results:
 Python is used only for benchmarks; this file is not part of vsaqem.
 """
 
-import argparse
-import json
 import sys
-import time
 
 import numpy as np
 import open3d as o3d
 
+from pipeline_common import Steps, arguments
+
 
 def main() -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--method", choices=["poisson", "bpa"], required=True)
-    ap.add_argument("input")
-    ap.add_argument("output")
-    ap.add_argument("n", type=int, help="target vertex count (2N triangles)")
+    ap = arguments(__doc__)
     ap.add_argument("--knn", type=int, default=20, help="neighbours for normals (20)")
-    ap.add_argument("--depth", type=int, default=8, help="Poisson octree depth (8)")
-    ap.add_argument("--trim", type=float, default=0.02,
-                    help="Poisson: remove vertices below this density quantile (0.02)")
     ap.add_argument("--bpa-scale", type=float, default=3.0,
                     help="BPA: r = scale x mean nearest-neighbour distance (3)")
-    ap.add_argument("--info", help="write step times and counts here as JSON")
     a = ap.parse_args()
 
     o3d.utility.random.seed(1)
     o3d.utility.set_verbosity_level(o3d.utility.VerbosityLevel.Error)
-    info = {"method": a.method, "n": a.n, "steps_s": {}}
-    t = time.perf_counter()
-
-    def step(name):
-        nonlocal t
-        now = time.perf_counter()
-        info["steps_s"][name] = round(now - t, 4)
-        t = now
+    steps = Steps(a.method, a.n)
+    info, step = steps.info, steps.done
 
     pcd = o3d.io.read_point_cloud(a.input)
     if len(pcd.points) == 0:
@@ -99,9 +84,7 @@ def main() -> int:
     if not o3d.io.write_triangle_mesh(a.output, mesh, write_ascii=False):
         raise SystemExit(f"{a.output}: Open3D could not write the mesh")
     step("write")
-    if a.info:
-        with open(a.info, "w") as f:
-            json.dump(info, f, indent=1)
+    steps.write(a.info)
     return 0
 
 

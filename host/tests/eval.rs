@@ -339,3 +339,323 @@ fn command_fails_cleanly_on_bad_input() {
         assert!(err.contains(needle) && !err.contains("panicked"), "{err}");
     }
 }
+
+// ---------------------------------------------------------------------------------
+// Validity
+
+type Mesh = (Vec<[f64; 3]>, Vec<[u32; 3]>);
+
+/// The octahedron with vertices at ±1 on each axis, faces counter-clockwise outside.
+fn octahedron() -> Mesh {
+    let v = vec![
+        [1.0, 0.0, 0.0],
+        [-1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, -1.0, 0.0],
+        [0.0, 0.0, 1.0],
+        [0.0, 0.0, -1.0],
+    ];
+    let mut t = Vec::new();
+    for (x, sx) in [(0u32, 1.0), (1, -1.0)] {
+        for (y, sy) in [(2u32, 1.0), (3, -1.0)] {
+            for (z, sz) in [(4u32, 1.0), (5, -1.0)] {
+                t.push(if sx * sy * sz > 0.0 {
+                    [x, y, z]
+                } else {
+                    [x, z, y]
+                });
+            }
+        }
+    }
+    (v, t)
+}
+
+/// The octahedron subdivided `levels` times (each face into four), on the unit sphere.
+fn sphere(levels: u32) -> Mesh {
+    let (mut v, mut t) = octahedron();
+    for _ in 0..levels {
+        let mut mid = std::collections::HashMap::new();
+        let mut next = Vec::new();
+        for f in &t {
+            let m = [0, 1, 2].map(|i| {
+                let (a, b) = (f[i].min(f[(i + 1) % 3]), f[i].max(f[(i + 1) % 3]));
+                *mid.entry((a, b)).or_insert_with(|| {
+                    let p = [0, 1, 2].map(|k| v[a as usize][k] + v[b as usize][k]);
+                    let n = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+                    v.push(p.map(|c| c / n));
+                    v.len() as u32 - 1
+                })
+            });
+            next.extend([
+                [f[0], m[0], m[2]],
+                [m[0], f[1], m[1]],
+                [m[2], m[1], f[2]],
+                [m[0], m[1], m[2]],
+            ]);
+        }
+        t = next;
+    }
+    (v, t)
+}
+
+/// A torus (radii 2 and 0.7) of `n` x `m` quads, each split in two.
+fn torus(n: u32, m: u32) -> Mesh {
+    let mut v = Vec::new();
+    for i in 0..n {
+        for j in 0..m {
+            let (u, w) = (
+                std::f64::consts::TAU * i as f64 / n as f64,
+                std::f64::consts::TAU * j as f64 / m as f64,
+            );
+            let r = 2.0 + 0.7 * w.cos();
+            v.push([r * u.cos(), r * u.sin(), 0.7 * w.sin()]);
+        }
+    }
+    let id = |i: u32, j: u32| (i % n) * m + (j % m);
+    let mut t = Vec::new();
+    for i in 0..n {
+        for j in 0..m {
+            let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
+            t.push([a, b, c]);
+            t.push([a, c, d]);
+        }
+    }
+    (v, t)
+}
+
+/// A tetrahedron with corners `c + s * (±1, ±1, ±1)` (even sign changes), faces
+/// counter-clockwise outside, its vertices numbered from `first`.
+fn tetrahedron(c: [f64; 3], s: f64, first: u32) -> Mesh {
+    let v = [
+        [1.0, 1.0, 1.0],
+        [1.0, -1.0, -1.0],
+        [-1.0, 1.0, -1.0],
+        [-1.0, -1.0, 1.0],
+    ]
+    .iter()
+    .map(|d| [0, 1, 2].map(|k| c[k] + s * d[k]))
+    .collect();
+    let t = [[0, 1, 2], [0, 2, 3], [0, 3, 1], [1, 3, 2]]
+        .iter()
+        .map(|f: &[u32; 3]| f.map(|i| i + first))
+        .collect();
+    (v, t)
+}
+
+fn join(a: Mesh, b: Mesh) -> Mesh {
+    let n = a.0.len() as u32;
+    let mut v = a.0;
+    v.extend(b.0);
+    let mut t = a.1;
+    t.extend(b.1.iter().map(|f| f.map(|i| i + n)));
+    (v, t)
+}
+
+#[test]
+fn octahedron_is_a_valid_solid_of_genus_zero() {
+    let e = eval_mesh(&[[0.0; 3]], &octahedron());
+    let v = &e.validity;
+    assert_eq!(
+        (
+            v.self_intersecting_pairs,
+            v.coincident_vertices,
+            v.folded_edges,
+            v.bubbles
+        ),
+        (0, 0, 0, 0)
+    );
+    assert_eq!((v.closed_components, v.genus.clone()), (1, vec![0]));
+    assert!(e.topology.is_closed_manifold());
+    assert!(e.is_valid_solid(None));
+    assert!(e.is_valid_solid(Some(0)));
+    assert!(!e.is_valid_solid(Some(1)));
+    // The unit cube too, and the subdivided octahedron.
+    assert!(eval_mesh(&[CENTRE], &cube()).is_valid_solid(Some(0)));
+    assert!(eval_mesh(&[[0.0; 3]], &sphere(2)).is_valid_solid(Some(0)));
+}
+
+#[test]
+fn torus_has_genus_one() {
+    let e = eval_mesh(&[[0.0; 3]], &torus(16, 8));
+    assert_eq!(e.validity.genus, vec![1]);
+    assert_eq!(e.validity.handles(), 1);
+    assert_eq!(e.topology.euler, 0);
+    assert_eq!(e.validity.self_intersecting_pairs, 0);
+    assert!(e.is_valid_solid(Some(1)));
+    assert!(!e.is_valid_solid(Some(0)));
+}
+
+#[test]
+fn interpenetrating_tetrahedra_intersect() {
+    let m = join(
+        tetrahedron([0.0; 3], 1.0, 0),
+        tetrahedron([0.5, 0.3, 0.2], 1.0, 0),
+    );
+    let e = eval_mesh(&[[0.0; 3]], &m);
+    assert!(e.validity.self_intersecting_pairs > 0);
+    // Each is a closed manifold on its own: the combinatorics cannot tell.
+    assert!(e.topology.is_closed_manifold());
+    assert_eq!(e.validity.genus, vec![0, 0]);
+    assert!(!e.is_valid_solid(None));
+    // Apart, they are a valid (two-part) solid.
+    let apart = join(
+        tetrahedron([0.0; 3], 1.0, 0),
+        tetrahedron([5.0, 0.0, 0.0], 1.0, 0),
+    );
+    assert!(eval_mesh(&[[0.0; 3]], &apart).is_valid_solid(Some(0)));
+}
+
+#[test]
+fn pinch_split_in_place_is_caught() {
+    // Two tetrahedra sharing one apex, the apex split into two vertices at the same
+    // position: combinatorially two closed manifolds, geometrically one pinched solid.
+    let apex = [0.0, 0.0, 0.0];
+    let below = (
+        vec![
+            apex,
+            [1.0, 0.0, -1.0],
+            [-0.5, 0.8, -1.0],
+            [-0.5, -0.8, -1.0],
+        ],
+        vec![[0, 1, 2], [0, 2, 3], [0, 3, 1], [1, 3, 2]],
+    );
+    let above = (
+        vec![apex, [1.0, 0.0, 1.0], [-0.5, -0.8, 1.0], [-0.5, 0.8, 1.0]],
+        vec![[0, 1, 2], [0, 2, 3], [0, 3, 1], [1, 3, 2]],
+    );
+    let e = eval_mesh(&[[0.0; 3]], &join(below, above));
+    assert!(e.topology.is_closed_manifold());
+    assert_eq!(e.topology.non_manifold_vertices, 0);
+    assert_eq!(e.validity.coincident_vertices, 1);
+    assert!(e.validity.self_intersecting_pairs > 0);
+    assert!(!e.is_valid_solid(None));
+}
+
+#[test]
+fn face_folded_onto_its_neighbour_makes_folded_edges() {
+    // A triangular bipyramid whose top apex is pushed down to just above the bottom
+    // one: each top face folds onto the bottom face across the equator edge.
+    let ring: Vec<[f64; 3]> = (0..3)
+        .map(|i| {
+            let a = std::f64::consts::TAU * i as f64 / 3.0;
+            [a.cos(), a.sin(), 0.0]
+        })
+        .collect();
+    let mut v = ring;
+    v.push([0.0, 0.0, 1.0]);
+    v.push([0.0, 0.0, -1.0]);
+    let t = vec![
+        [0, 1, 3],
+        [1, 2, 3],
+        [2, 0, 3],
+        [1, 0, 4],
+        [2, 1, 4],
+        [0, 2, 4],
+    ];
+    let e = evaluate(&[[0.0; 3]], &v, &t, 500);
+    assert_eq!(e.validity.folded_edges, 0);
+    assert!(e.is_valid_solid(Some(0)));
+    v[3] = [0.0, 0.0, -0.9];
+    let e = evaluate(&[[0.0; 3]], &v, &t, 500);
+    assert!(e.topology.is_closed_manifold());
+    assert_eq!(e.validity.folded_edges, 3);
+    assert!(!e.is_valid_solid(None));
+    // An orientation error alone is not a fold.
+    let (v, mut t) = cube();
+    t[3].swap(1, 2);
+    assert_eq!(evaluate(&[CENTRE], &v, &t, 500).validity.folded_edges, 0);
+}
+
+#[test]
+fn coplanar_triangles_intersect_only_where_they_overlap() {
+    let v = vec![
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [0.2, 0.2, 0.0],
+        [2.0, 0.5, 0.0],
+        [0.5, 2.0, 0.0],
+    ];
+    // Overlapping, no shared vertex.
+    let e = evaluate(&[[0.0; 3]], &v, &[[0, 1, 2], [4, 5, 6]], 100);
+    assert_eq!(e.validity.self_intersecting_pairs, 1);
+    // Sharing an edge, side by side in one plane: a flat square.
+    let e = evaluate(&[[0.0; 3]], &v, &[[0, 1, 2], [2, 1, 3]], 100);
+    assert_eq!(e.validity.self_intersecting_pairs, 0);
+    assert_eq!(e.validity.folded_edges, 0);
+    // Sharing an edge, the second folded back over the first.
+    let e = evaluate(&[[0.0; 3]], &v, &[[0, 1, 2], [2, 1, 4]], 100);
+    assert_eq!(e.validity.self_intersecting_pairs, 1);
+    assert_eq!(e.validity.folded_edges, 1);
+}
+
+#[test]
+fn tiny_closed_component_beside_a_sphere_is_a_bubble() {
+    let m = join(sphere(2), tetrahedron([3.0, 0.0, 0.0], 0.05, 0));
+    let e = eval_mesh(&[[0.0; 3]], &m);
+    let v = &e.validity;
+    assert_eq!((v.bubbles, v.bubble_faces), (1, 4));
+    assert_eq!((v.closed_components, v.genus.clone()), (2, vec![0, 0]));
+    assert_eq!(v.self_intersecting_pairs, 0);
+    assert!(!e.is_valid_solid(None));
+    // Two tetrahedra alone: neither is ten times the other.
+    let two = join(
+        tetrahedron([0.0; 3], 1.0, 0),
+        tetrahedron([5.0, 0.0, 0.0], 0.1, 0),
+    );
+    assert_eq!(eval_mesh(&[[0.0; 3]], &two).validity.bubbles, 0);
+}
+
+#[test]
+fn hostile_positions_do_not_panic_and_are_not_valid() {
+    let (mut v, t) = octahedron();
+    v[0] = [f64::NAN, 0.0, 0.0];
+    v[1] = [1e308, -1e308, f64::INFINITY];
+    let mut t2 = t.clone();
+    t2.push([0, 1, 77]);
+    let e = eval_mesh(&[[0.0; 3]], &(v, t2));
+    assert!(e.topology.degenerate_faces >= 4);
+    assert!(!e.is_valid_solid(None));
+}
+
+#[test]
+fn command_reports_validity_and_checks_the_expected_genus() {
+    let d = dir("validity");
+    let (pts, mesh) = (d.join("pts.xyz"), d.join("torus.off"));
+    write_xyz(&pts, &torus(16, 8).0);
+    write_off(&mesh, &torus(16, 8));
+    let (code, out, err) = run(&[&pts, &mesh]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(
+        out.contains(
+            "validity      self-intersecting pairs 0, coincident vertices 0, folded edges 0, \
+             bubbles 0 (0 faces), closed components 1, genus [1]; valid solid: yes\n"
+        ),
+        "{out}"
+    );
+    let (_, out, _) = run(&[&pts, &mesh, Path::new("--expect-genus"), Path::new("0")]);
+    assert!(
+        out.contains("valid solid: no (genus 1, expected 0)"),
+        "{out}"
+    );
+    assert!(out.contains("closed manifold: yes"), "{out}");
+    let (_, out, _) = run(&[
+        &pts,
+        &mesh,
+        Path::new("--json"),
+        Path::new("--expect-genus"),
+        Path::new("1"),
+    ]);
+    let out = out.replace([' ', '\n'], "");
+    for needle in [
+        "\"self_intersecting_pairs\":0,",
+        "\"genus\":[1],",
+        "\"handles\":1,",
+        "\"expected_genus\":1,",
+        "\"valid_solid\":true",
+        "\"closed_manifold\":true",
+    ] {
+        assert!(out.contains(needle), "'{needle}' not in:\n{out}");
+    }
+}

@@ -21,6 +21,11 @@ pub struct Cmd {
     /// Surface samples for the mesh -> points distances (seeded, area-uniform).
     #[arg(long, default_value_t = DEFAULT_SAMPLES)]
     pub samples: usize,
+    /// The genus the surface should have (0 for a sphere, 1 for a torus): the
+    /// "valid solid" verdict then also requires the closed components' genera to sum
+    /// to it.
+    #[arg(long, value_name = "G")]
+    pub expect_genus: Option<u64>,
 }
 
 /// Run the command.
@@ -43,6 +48,7 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
         points_file: cmd.points.display().to_string(),
         mesh_file: cmd.mesh.display().to_string(),
         evaluation,
+        expect_genus: cmd.expect_genus,
         read_ms,
         eval_ms,
     };
@@ -62,6 +68,8 @@ pub struct EvalReport {
     pub mesh_file: String,
     /// What was measured.
     pub evaluation: Evaluation,
+    /// The genus asked for with `--expect-genus`, if any.
+    pub expect_genus: Option<u64>,
     /// Time to read both files, in milliseconds.
     pub read_ms: f64,
     /// Time to evaluate, in milliseconds.
@@ -73,7 +81,40 @@ fn dist(e: &Evaluation, d: f64) -> String {
     format!("{:.4}% ({d:.4e})", 100.0 * e.rel(d))
 }
 
+/// `v` as `[a, b, c]`, at most `MAX` items then the number left out.
+fn list(v: &[u32]) -> String {
+    const MAX: usize = 10;
+    let items: Vec<String> = v.iter().take(MAX).map(u32::to_string).collect();
+    let more = if v.len() > MAX {
+        format!(", ... +{} more", v.len() - MAX)
+    } else {
+        String::new()
+    };
+    format!("[{}{more}]", items.join(", "))
+}
+
 impl EvalReport {
+    /// The verdict, with the genus asked for if any.
+    pub fn valid_solid(&self) -> bool {
+        self.evaluation.is_valid_solid(self.expect_genus)
+    }
+
+    /// "yes", "no", and why the genus alone fails or passes when one was asked for.
+    fn verdict(&self) -> String {
+        let yes = if self.valid_solid() { "yes" } else { "no" };
+        match self.expect_genus {
+            None => yes.into(),
+            Some(g) => {
+                let h = self.evaluation.validity.handles();
+                if h == g {
+                    format!("{yes} (genus {h} as expected)")
+                } else {
+                    format!("{yes} (genus {h}, expected {g})")
+                }
+            }
+        }
+    }
+
     /// The text report: one line per group.
     pub fn text(&self) -> String {
         let e = &self.evaluation;
@@ -82,6 +123,7 @@ impl EvalReport {
         let p = &e.point_to_mesh.stats;
         let m = &e.mesh_to_points;
         let q = &e.quality;
+        let v = &e.validity;
         let yes = |b: bool| if b { "yes" } else { "no" };
         format!(
             "input         {}: {} points, bounding-box diagonal {:.6}; {}: {} vertices, {} faces\n\
@@ -91,6 +133,8 @@ impl EvalReport {
              topology      V {} (+{} unreferenced), E {}, F {}, Euler {}, components {}, boundary edges {}, \
              non-manifold edges {}, non-manifold vertices {}, inconsistent edges {}, degenerate faces {}, \
              duplicate faces {}, invalid faces {}; closed manifold: {}\n\
+             validity      self-intersecting pairs {}, coincident vertices {}, folded edges {}, \
+             bubbles {} ({} faces), closed components {}, genus {}; valid solid: {}\n\
              volume        {:.6e} (signed: {})\n\
              min angle     min {:.2}°, p1 {:.2}°, p5 {:.2}°, median {:.2}°\n\
              time          read {read_ms:.1} ms, evaluate {eval_ms:.1} ms\n",
@@ -125,6 +169,14 @@ impl EvalReport {
             t.duplicate_faces,
             t.invalid_faces,
             yes(t.is_closed_manifold()),
+            v.self_intersecting_pairs,
+            v.coincident_vertices,
+            v.folded_edges,
+            v.bubbles,
+            v.bubble_faces,
+            v.closed_components,
+            list(&v.genus),
+            self.verdict(),
             e.signed_volume,
             if e.signed_volume >= 0.0 {
                 "faces point outwards if closed"
@@ -163,6 +215,23 @@ impl EvalReport {
             .num("degenerate_faces", t.degenerate_faces as f64)
             .num("duplicate_faces", t.duplicate_faces as f64)
             .bool("closed_manifold", t.is_closed_manifold());
+        let v = &e.validity;
+        let genus: Vec<f64> = v.genus.iter().map(|&g| f64::from(g)).collect();
+        let mut validity = json::Obj::default();
+        validity
+            .num("self_intersecting_pairs", v.self_intersecting_pairs as f64)
+            .num("coincident_vertices", v.coincident_vertices as f64)
+            .num("folded_edges", v.folded_edges as f64)
+            .num("bubbles", v.bubbles as f64)
+            .num("bubble_faces", v.bubble_faces as f64)
+            .num("closed_components", v.closed_components as f64)
+            .raw("genus", &json::array(&genus))
+            .num("handles", v.handles() as f64)
+            .num(
+                "expected_genus",
+                self.expect_genus.map_or(f64::NAN, |g| g as f64),
+            )
+            .bool("valid_solid", self.valid_solid());
         let q = &e.quality;
         let mut quality = json::Obj::default();
         quality
@@ -185,6 +254,7 @@ impl EvalReport {
             .num("hausdorff_relative", e.rel(e.hausdorff))
             .num("signed_volume", e.signed_volume)
             .raw("topology", &topo.nested())
+            .raw("validity", &validity.nested())
             .raw("quality", &quality.nested())
             .raw("time_ms", &time.nested());
         o.finish() + "\n"

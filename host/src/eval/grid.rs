@@ -1,0 +1,232 @@
+//! A uniform grid of cubic cells over axis-aligned boxes, with an exact
+//! nearest-item ring search and an enumeration of the overlapping pairs.
+
+use crate::geom::sub;
+
+/// A uniform grid of cubic cells over items given by axis-aligned boxes; each item is
+/// listed in every cell its box overlaps (CSR: `start[cell]..start[cell + 1]` of
+/// `items`). Memory: 4 bytes per cell plus 4 per (item, cell) pair.
+pub(super) struct Grid {
+    min: [f64; 3],
+    h: f64,
+    pub(super) dims: [usize; 3],
+    start: Vec<u32>,
+    items: Vec<u32>,
+}
+
+/// Largest number of cells a grid may have (64 MiB of offsets).
+const MAX_CELLS: f64 = (1u64 << 24) as f64;
+
+impl Grid {
+    /// A grid of about `target` cells over `boxes`, coarsened while the (item, cell)
+    /// pairs would exceed 32 per item (huge triangles). O(n + cells + pairs).
+    pub(super) fn build(boxes: &[([f64; 3], [f64; 3])], target: f64) -> Grid {
+        let lo = bounds(boxes.iter().map(|b| b.0)).0;
+        let hi = bounds(boxes.iter().map(|b| b.1)).1;
+        let ext = sub(hi, lo);
+        let size = ext[0].max(ext[1]).max(ext[2]);
+        let target = target.clamp(1.0, MAX_CELLS);
+        let cells = |h: f64| -> f64 { ext.iter().map(|&e| (e / h).ceil().max(1.0)).product() };
+        let mut h = if size > 0.0 {
+            let floor = size * 1e-6;
+            (ext.iter().map(|&e| e.max(floor)).product::<f64>() / target).cbrt()
+        } else {
+            1.0
+        };
+        while cells(h) > 2.0 * target {
+            h *= 1.25;
+        }
+        let max_pairs = 32.0 * boxes.len() as f64 + f64::from(1u32 << 20);
+        loop {
+            let mut g = Grid {
+                min: lo,
+                h,
+                dims: ext.map(|e| ((e / h).ceil() as usize).max(1)),
+                start: Vec::new(),
+                items: Vec::new(),
+            };
+            let ranges: Vec<_> = boxes
+                .iter()
+                .map(|b| (g.cell_of(b.0), g.cell_of(b.1)))
+                .collect();
+            let pairs: f64 = ranges
+                .iter()
+                .map(|(a, b)| (0..3).map(|i| (b[i] - a[i] + 1) as f64).product::<f64>())
+                .sum();
+            if pairs > max_pairs && g.dims.iter().any(|&d| d > 1) {
+                h *= 1.5;
+                continue;
+            }
+            let mut start = vec![0u32; g.dims.iter().product::<usize>() + 1];
+            for r in &ranges {
+                g.for_cells(r, |c| start[c + 1] += 1);
+            }
+            for i in 1..start.len() {
+                start[i] += start[i - 1];
+            }
+            let mut next = start.clone();
+            let mut items = vec![0u32; pairs as usize];
+            for (i, r) in ranges.iter().enumerate() {
+                g.for_cells(r, |c| {
+                    items[next[c] as usize] = i as u32;
+                    next[c] += 1;
+                });
+            }
+            g.start = start;
+            g.items = items;
+            return g;
+        }
+    }
+
+    /// Calls `f(cell)` for every cell of the inclusive index range `r`.
+    fn for_cells(&self, r: &([usize; 3], [usize; 3]), mut f: impl FnMut(usize)) {
+        for z in r.0[2]..=r.1[2] {
+            for y in r.0[1]..=r.1[1] {
+                for x in r.0[0]..=r.1[0] {
+                    f(x + self.dims[0] * (y + self.dims[1] * z));
+                }
+            }
+        }
+    }
+
+    /// The cell holding `p`, clamped into the grid.
+    fn cell_of(&self, p: [f64; 3]) -> [usize; 3] {
+        let mut c = [0; 3];
+        for a in 0..3 {
+            let t = ((p[a] - self.min[a]) / self.h).floor();
+            c[a] = if t > 0.0 {
+                (t as usize).min(self.dims[a] - 1)
+            } else {
+                0
+            };
+        }
+        c
+    }
+
+    /// Calls `f(i, j)`, `i < j`, exactly once for every pair of items whose (closed)
+    /// boxes overlap: in the cell holding the lower corner of the two boxes'
+    /// intersection, which both boxes cover. O(sum over cells of items²).
+    pub(super) fn overlapping_pairs(
+        &self,
+        boxes: &[([f64; 3], [f64; 3])],
+        mut f: impl FnMut(u32, u32),
+    ) {
+        for z in 0..self.dims[2] {
+            for y in 0..self.dims[1] {
+                for x in 0..self.dims[0] {
+                    let id = x + self.dims[0] * (y + self.dims[1] * z);
+                    let items = &self.items[self.start[id] as usize..self.start[id + 1] as usize];
+                    for (k, &i) in items.iter().enumerate() {
+                        let a = &boxes[i as usize];
+                        for &j in &items[k + 1..] {
+                            let b = &boxes[j as usize];
+                            let overlap = (0..3).all(|c| a.0[c] <= b.1[c] && b.0[c] <= a.1[c]);
+                            let corner = [0, 1, 2].map(|c| a.0[c].max(b.0[c]));
+                            if overlap && self.cell_of(corner) == [x, y, z] {
+                                f(i.min(j), i.max(j));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Squared distance from `p` to the box of cell `c`.
+    fn cell_dist2(&self, p: [f64; 3], c: [usize; 3]) -> f64 {
+        let mut d2 = 0.0;
+        for a in 0..3 {
+            let lo = self.min[a] + c[a] as f64 * self.h;
+            let d = (lo - p[a]).max(p[a] - (lo + self.h)).max(0.0);
+            d2 += d * d;
+        }
+        d2
+    }
+
+    /// The smallest `dist2(item, best2)` over all items, exactly: cells are visited in
+    /// rings of growing Chebyshev radius around the cell of `p` until the next ring is
+    /// farther than the best distance. `dist2` may return `INFINITY` for an item it can
+    /// show is not closer than `best2`.
+    pub(super) fn nearest(&self, p: [f64; 3], mut dist2: impl FnMut(u32, f64) -> f64) -> f64 {
+        let c = self.cell_of(p);
+        let reach = (0..3)
+            .map(|a| c[a].max(self.dims[a] - 1 - c[a]))
+            .max()
+            .unwrap_or(0);
+        let mut best2 = f64::INFINITY;
+        for k in 0..=reach {
+            // Any cell of ring k is at least (k - 1) * h away.
+            let lb = k.saturating_sub(1) as f64 * self.h;
+            if lb * lb >= best2 {
+                break;
+            }
+            let lo = c.map(|v| v as isize - k as isize);
+            let hi = c.map(|v| v as isize + k as isize);
+            for z in lo[2].max(0)..=hi[2].min(self.dims[2] as isize - 1) {
+                let z_edge = z == lo[2] || z == hi[2];
+                for y in lo[1].max(0)..=hi[1].min(self.dims[1] as isize - 1) {
+                    let yz_edge = z_edge || y == lo[1] || y == hi[1];
+                    let step = if yz_edge { 1 } else { (2 * k).max(1) };
+                    let mut x = lo[0];
+                    while x <= hi[0] {
+                        if x >= 0 && x < self.dims[0] as isize {
+                            let cell = [x as usize, y as usize, z as usize];
+                            if self.cell_dist2(p, cell) < best2 {
+                                let id =
+                                    cell[0] + self.dims[0] * (cell[1] + self.dims[1] * cell[2]);
+                                let (s, e) = (self.start[id] as usize, self.start[id + 1] as usize);
+                                for &item in &self.items[s..e] {
+                                    best2 = best2.min(dist2(item, best2));
+                                }
+                            }
+                        }
+                        x += step as isize;
+                    }
+                }
+            }
+        }
+        best2
+    }
+}
+
+/// The smallest box holding every point of `it` (inverted when empty).
+pub(super) fn bounds(it: impl Iterator<Item = [f64; 3]>) -> ([f64; 3], [f64; 3]) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in it {
+        for a in 0..3 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+    }
+    (lo, hi)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::eval::rng_points;
+    use crate::geom::dot;
+
+    #[test]
+    fn nearest_point_search_equals_brute_force_on_a_flat_cloud() {
+        // All points in one plane: the grid has a single layer of cells.
+        let pts: Vec<[f64; 3]> = rng_points(2000, 3, 1.0)
+            .into_iter()
+            .map(|p| [p[0], p[1], 0.0])
+            .collect();
+        let boxes: Vec<_> = pts.iter().map(|&p| (p, p)).collect();
+        let grid = Grid::build(&boxes, pts.len() as f64);
+        assert_eq!(grid.dims[2], 1);
+        for q in rng_points(500, 5, 2.0) {
+            let got = grid.nearest(q, |i, _| {
+                dot(sub(pts[i as usize], q), sub(pts[i as usize], q))
+            });
+            let want = pts
+                .iter()
+                .map(|&p| dot(sub(p, q), sub(p, q)))
+                .fold(f64::INFINITY, f64::min);
+            assert_eq!(got, want);
+        }
+    }
+}
