@@ -34,7 +34,7 @@ mod validity;
 use crate::geom::{cross, dot, sub};
 use distance::{diagonal, mesh_to_point_distances, point_to_mesh_distances, stats};
 pub use distance::{dist2_point_triangle, sample_surface};
-pub use intersect::{faces_intersect, self_intersecting_pairs};
+pub use intersect::self_intersecting_pairs;
 pub use quality::min_angle_deg;
 use quality::quality;
 use topology::topology;
@@ -141,7 +141,7 @@ impl Topology {
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct Validity {
     /// Pairs of faces that meet anywhere other than along the edge or at the vertex
-    /// they share by index ([`faces_intersect`]); exact. Touching counts, so does a
+    /// they share by index (core's `faces_intersect`); exact. Touching counts, so does a
     /// vertex of one at the position of a vertex of the other with another index.
     pub self_intersecting_pairs: usize,
     /// Vertices of proper faces at exactly the position of another such vertex,
