@@ -204,6 +204,47 @@ impl<'a> FaceGrid<'a> {
         (c0, c1)
     }
 
+    /// Calls `f(a, b)`, `a < b`, once for every pair of faces whose bounding
+    /// boxes overlap (touching counts), in the order of the grid's cells. Each
+    /// pair is reported in one cell only: the one holding the lowest corner of
+    /// the two boxes' overlap. O(Σ over cells of its faces²).
+    pub fn for_each_overlapping_pair(&self, mut f: impl FnMut(u32, u32)) {
+        let boxed = |face: u32| {
+            let t = self.faces.get(face as usize)?;
+            Some(bbox(&corners(self.vertices, *t)?))
+        };
+        let mut i = 0;
+        while i < self.entries.len() {
+            let key = self.entries[i] >> 32;
+            let run = self.entries[i..]
+                .iter()
+                .take_while(|&&e| e >> 32 == key)
+                .count();
+            let cell = &self.entries[i..i + run];
+            for (x, &ea) in cell.iter().enumerate() {
+                let a = ea as u32;
+                let Some((alo, ahi)) = boxed(a) else {
+                    continue;
+                };
+                for &eb in &cell[x + 1..] {
+                    let b = eb as u32;
+                    let Some((blo, bhi)) = boxed(b) else {
+                        continue;
+                    };
+                    if (0..3).any(|k| alo[k] > bhi[k] || blo[k] > ahi[k]) {
+                        continue;
+                    }
+                    let lo: V3 = core::array::from_fn(|k| alo[k].max(blo[k]));
+                    let (first, _) = self.cells_of_box(lo, lo);
+                    if pack(first) == key {
+                        f(a.min(b), a.max(b));
+                    }
+                }
+            }
+            i += run;
+        }
+    }
+
     /// The face nearest to `p` and its squared distance (exact point-triangle
     /// distance; ties go to the lower face index), or `None` without faces.
     pub fn nearest(&self, p: V3) -> Option<(u32, f32)> {
@@ -386,6 +427,32 @@ mod tests {
             assert_eq!(d2, brute.0, "point {p:?}");
             assert_eq!(face, brute.1);
         }
+    }
+
+    #[test]
+    fn overlapping_pairs_are_those_a_scan_of_all_pairs_finds_once_each() {
+        let (v, f) = soup(5, 300);
+        let mut buf = vec![MaybeUninit::uninit(); 1 << 20];
+        let arena = Arena::new(&mut buf);
+        let grid = FaceGrid::try_new_in(&arena, &v, &f).unwrap();
+        let mut got = Vec::new();
+        grid.for_each_overlapping_pair(|a, b| got.push((a, b)));
+        let boxes: Vec<(V3, V3)> = f.iter().map(|t| bbox(&t.map(|i| v[i as usize]))).collect();
+        let mut want = Vec::new();
+        for a in 0..f.len() {
+            for b in a + 1..f.len() {
+                let (p, q) = (boxes[a], boxes[b]);
+                if (0..3).all(|k| p.0[k] <= q.1[k] && q.0[k] <= p.1[k]) {
+                    want.push((a as u32, b as u32));
+                }
+            }
+        }
+        let n = got.len();
+        got.sort_unstable();
+        got.dedup();
+        assert_eq!(got.len(), n, "a pair was reported twice");
+        assert_eq!(got, want);
+        assert!(want.len() > 20, "{}", want.len());
     }
 
     #[test]

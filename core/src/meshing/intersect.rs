@@ -15,10 +15,27 @@
 //!
 //! Cost: O(1) per pair, no memory.
 
-use crate::math::{cross_d, sub_d};
+use crate::math::{cross_d, dot_d, sub_d};
 use robust::{orient2d, orient3d, Coord, Coord3D};
 
 type P = [f64; 3];
+
+/// Two faces on an edge whose half-planes about it are less than this many
+/// degrees apart are folded onto each other.
+pub const FOLD_DEGREES: f64 = 10.0;
+/// `cos(FOLD_DEGREES)`.
+const FOLD_COS: f64 = 0.984_807_753_012_208;
+
+/// Whether the faces `(u, v, c1)` and `(v, u, c2)` on the edge `uv` lie almost
+/// on top of each other: their half-planes about the edge less than
+/// [`FOLD_DEGREES`] apart (so a face whose orientation alone is flipped does
+/// not count). False when either face has no area.
+pub fn folded(u: P, v: P, c1: P, c2: P) -> bool {
+    let e = sub_d(v, u);
+    let (n1, n2) = (cross_d(e, sub_d(c1, u)), cross_d(e, sub_d(c2, u)));
+    let len = libm::sqrt(dot_d(n1, n1) * dot_d(n2, n2));
+    len > 0.0 && dot_d(n1, n2) > FOLD_COS * len
+}
 type C = Coord<f64>;
 
 /// Whether faces `f` and `g` (vertex indices, each three distinct; `p` and `q` their
@@ -180,6 +197,22 @@ fn within(p: C, a: C, b: C) -> bool {
 mod tests {
     use super::*;
     use crate::math::{cross_d as cross, dot_d as dot, sub_d as sub};
+
+    #[test]
+    fn fold_constant_is_the_cosine_of_its_angle() {
+        assert!((libm::cos(FOLD_DEGREES.to_radians()) - FOLD_COS).abs() < 1e-15);
+        let (u, v) = ([0.0; 3], [1.0, 0.0, 0.0]);
+        let at = |deg: f64| {
+            [
+                0.5,
+                libm::cos(deg.to_radians()),
+                libm::sin(deg.to_radians()),
+            ]
+        };
+        assert!(folded(u, v, at(0.0), at(9.0)));
+        assert!(!folded(u, v, at(0.0), at(11.0)));
+        assert!(!folded(u, v, at(0.0), at(180.0)));
+    }
     use crate::rng::Rng;
     use std::vec::Vec;
 

@@ -52,7 +52,7 @@ pub const FAR_FRACTION: f64 = 0.01;
 pub const ZERO_AREA: f64 = 1e-12;
 /// Two faces on an edge are folded when their normals, oriented consistently, are more
 /// than this many degrees apart: they lie almost on top of each other.
-pub const FOLD_DEG: f64 = 170.0;
+pub const FOLD_DEG: f64 = 180.0 - vsaqem_core::meshing::intersect::FOLD_DEGREES;
 /// A closed component with fewer faces than this is a bubble when the mesh has a
 /// component [`BUBBLE_RATIO`] times larger.
 pub const BUBBLE_FACES: usize = 20;

@@ -2,8 +2,8 @@
 //! the same per component (for the genus), and the edges whose two faces fold onto
 //! each other.
 
-use super::{zero_area, Topology, FOLD_DEG};
-use crate::geom::{cross, dot, sub};
+use super::{zero_area, Topology};
+use vsaqem_core::meshing::intersect::folded;
 use vsaqem_core::union_find::UnionFind;
 
 /// What [`topology`] finds: the counts of the whole mesh, and per component.
@@ -44,18 +44,6 @@ impl Component {
             .then(|| u32::try_from((2 - chi) / 2).ok())
             .flatten()
     }
-}
-
-/// Whether the faces `(u, v, c1)` and `(v, u, c2)` on the edge `uv` lie almost on top of
-/// each other: their normals, oriented consistently, more than [`FOLD_DEG`] apart.
-/// Measured on the two half-planes about the edge (less than `180° - FOLD_DEG`
-/// between them), so a face whose orientation alone is flipped does not count. False
-/// when either face has no area.
-pub(super) fn folded(u: [f64; 3], v: [f64; 3], c1: [f64; 3], c2: [f64; 3]) -> bool {
-    let e = sub(v, u);
-    let (n1, n2) = (cross(e, sub(c1, u)), cross(e, sub(c2, u)));
-    let len = (dot(n1, n1) * dot(n2, n2)).sqrt();
-    len > 0.0 && dot(n1, n2) > (180.0 - FOLD_DEG).to_radians().cos() * len
 }
 
 /// Topology of `faces` (indices all `< vertices.len()`).

@@ -1,7 +1,7 @@
 //! Hole filling: boundary loops closed by ears; loops along the border of the
 //! data kept open, their notches eared and their vertices moved onto the border.
 
-use super::{dir, edge_table, face_normal, faces_of, key};
+use super::{dir, edge_table, face_normal, faces_of, key, untangled};
 use crate::arena::Alloc;
 use crate::error::Result;
 use crate::math::{add, cross, dist2, dot, norm, sub, V3};
@@ -30,7 +30,8 @@ pub(super) struct Filled {
 /// edge is required). Each loop is cut by ears, the shortest new edge first
 /// (an ear turning against the loop's surrounding faces costs 16 times more); an
 /// ear is never degenerate and never adds an edge the mesh already has, so every
-/// edge keeps at most two faces. A loop with no admissible ear stays open.
+/// edge keeps at most two faces. A loop with no admissible ear stays open, and
+/// the faces along it are marked in `widen` (indices into `faces`).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn fill_holes<'b, S: Alloc<'b>>(
     s: &S,
@@ -39,6 +40,7 @@ pub(super) fn fill_holes<'b, S: Alloc<'b>>(
     generators: &[V3],
     open: &[bool],
     along: &mut [bool],
+    widen: &mut [bool],
     max_hole: u32,
     tol: f32,
 ) -> Result<Filled> {
@@ -189,6 +191,13 @@ pub(super) fn fill_holes<'b, S: Alloc<'b>>(
                     out.holes += 1;
                 } else {
                     out.left += 1;
+                    // No clean filling: the faces around the loop may go, for a
+                    // wider hole with other ears.
+                    for &f in side.iter() {
+                        if let Some(w) = widen.get_mut(f as usize) {
+                            *w = true;
+                        }
+                    }
                 }
                 if pinch.is_none() {
                     break;
@@ -206,7 +215,9 @@ pub(super) fn fill_holes<'b, S: Alloc<'b>>(
 /// turn, `normal` roughly their side) into `poly.len() - 2` ears written from
 /// `faces[at]` on, the shortest new edge first (an ear turning against `normal`
 /// costs 16 times more). An ear is never degenerate, never adds an edge the
-/// mesh already has (`known`, or an earlier ear of this loop). Returns false,
+/// mesh already has (`known`, or an earlier ear of this loop), and never
+/// crosses a face of `faces[..at]` or an earlier ear, nor folds onto one
+/// ([`untangled`]). Returns false,
 /// with `faces` from `at` on left to be overwritten, when no admissible ear is
 /// left. `poly` is consumed.
 #[allow(clippy::too_many_arguments)]
@@ -226,29 +237,49 @@ fn fill_loop(
     }
     let mut ears = 0usize;
     while len > 3 {
-        let mut best: Option<(f32, usize)> = None;
-        for i in 0..len {
-            let (a, b, c) = (poly[(i + len - 1) % len], poly[i], poly[(i + 1) % len]);
-            let repeats = faces[at..at + ears]
-                .iter()
-                .any(|f| key(f[0], f[2]) == key(a, c));
-            if a == c || known(a, c) || repeats || degenerate(g(a), g(b), g(c), tol) {
-                continue;
+        // Ears that would cross the mesh or fold onto it (checked only for the
+        // cheapest candidate, which is then refused and the next one tried).
+        let mut refused = 0u128;
+        let i = loop {
+            let mut best: Option<(f32, usize)> = None;
+            for i in 0..len {
+                let (a, b, c) = (poly[(i + len - 1) % len], poly[i], poly[(i + 1) % len]);
+                let repeats = faces[at..at + ears]
+                    .iter()
+                    .any(|f| key(f[0], f[2]) == key(a, c));
+                if a == c
+                    || known(a, c)
+                    || repeats
+                    || (i < 128 && refused & (1 << i) != 0)
+                    || degenerate(g(a), g(b), g(c), tol)
+                {
+                    continue;
+                }
+                let turn = dot(cross(sub(g(b), g(a)), sub(g(c), g(b))), normal);
+                let cost = dist2(g(a), g(c)) * if turn < 0.0 { 16.0 } else { 1.0 };
+                if best.is_none_or(|(bc, _)| cost < bc) {
+                    best = Some((cost, i));
+                }
             }
-            let turn = dot(cross(sub(g(b), g(a)), sub(g(c), g(b))), normal);
-            let cost = dist2(g(a), g(c)) * if turn < 0.0 { 16.0 } else { 1.0 };
-            if best.is_none_or(|(bc, _)| cost < bc) {
-                best = Some((cost, i));
+            let Some((_, i)) = best else {
+                break None;
+            };
+            let ear = [poly[(i + len - 1) % len], poly[i], poly[(i + 1) % len]];
+            if i >= 128 || untangled(&faces[..at + ears], &[], &[ear], generators) {
+                break Some(i);
             }
-        }
-        let Some((_, i)) = best else { return false };
+            refused |= 1 << i;
+        };
+        let Some(i) = i else { return false };
         faces[at + ears] = [poly[(i + len - 1) % len], poly[i], poly[(i + 1) % len]];
         ears += 1;
         poly.copy_within(i + 1..len, i);
         len -= 1;
     }
     let (a, b, c) = (poly[0], poly[1], poly[2]);
-    if degenerate(g(a), g(b), g(c), tol) {
+    if degenerate(g(a), g(b), g(c), tol)
+        || !untangled(&faces[..at + ears], &[], &[[a, b, c]], generators)
+    {
         return false;
     }
     faces[at + ears] = [a, b, c];

@@ -1,7 +1,7 @@
 //! Skipped clusters: generators the selection jumped over, put back into the
 //! mesh.
 
-use super::face_normal;
+use super::{face_normal, untangled};
 use crate::arena::Alloc;
 use crate::error::Result;
 use crate::math::{closest_on_triangle, dist2, dot, V3};
@@ -28,7 +28,8 @@ pub(super) struct Inserted {
 /// when it lies nearest an edge of that face, into the edge, whose faces are
 /// each split in two. A split that would make a degenerate face (edge or area
 /// below `tol`) or turn a face over (its normal against the face it replaces)
-/// is not made. Windings are kept, so orientation and edge-manifoldness hold.
+/// is not made, nor one whose new faces would cross a face of the mesh or fold
+/// onto a neighbour ([`untangled`]). Windings are kept, so orientation and edge-manifoldness hold.
 /// `faces` must have room for two more faces per insertion; clusters beyond
 /// that room are left out. Cost: O(faces) per skipped cluster.
 pub(super) fn insert_skipped<'b, S: Alloc<'b>>(
@@ -114,8 +115,15 @@ pub(super) fn insert_skipped<'b, S: Alloc<'b>>(
                 count += 1;
             }
             let edge_ok = count <= 2
-                && (0..count).all(|i| sound(&halves[2 * i..2 * i + 2], faces[on_edge[i]]));
-            let face_ok = sound(&in_face, faces[f]);
+                && (0..count).all(|i| sound(&halves[2 * i..2 * i + 2], faces[on_edge[i]]))
+                && untangled(
+                    &faces[..nf],
+                    &on_edge[..count],
+                    &halves[..2 * count],
+                    generators,
+                );
+            let face_ok =
+                sound(&in_face, faces[f]) && untangled(&faces[..nf], &[f], &in_face, generators);
             if edge_ok && (bary[k] < EDGE_BARYCENTRIC || !face_ok) {
                 for i in 0..count {
                     faces[on_edge[i]] = halves[2 * i];

@@ -35,9 +35,12 @@ mod tests;
 
 use crate::arena::{Alloc, Arena};
 use crate::error::Result;
+use crate::math::to_d3;
 use crate::math::{add, cross, dot, norm, sub, V3};
 use crate::meshing::candidates::{Candidates, Members};
 use crate::meshing::distance::{summarise, try_point_distances_in, MeshDistance};
+use crate::meshing::face_grid::FaceGrid;
+use crate::meshing::intersect::{faces_intersect, folded};
 use crate::union_find::UnionFind;
 
 use holes::{fill_holes, Filled};
@@ -58,9 +61,15 @@ pub struct MeshStats {
     pub components: u32,
     /// Components that could not be oriented consistently.
     pub non_orientable: u32,
+    /// Small closed pieces beside a large surface (bubbles) removed; their
+    /// clusters are inserted into the surface like skipped ones.
+    pub bubbles_removed: u32,
     /// Generators where the surface pinched (their faces formed several fans):
     /// all but the largest fan were cut out and the holes closed again.
     pub pinches_repaired: u32,
+    /// Pairs of faces that still cross each other or fold onto each other
+    /// after repair (0 is the aim: a valid solid).
+    pub tangled_pairs: u32,
     /// Extra vertices made to separate fans at non-manifold generators that
     /// pinch repair left (at the same position as the first: 0 is the aim).
     pub split_vertices: u32,
@@ -106,8 +115,10 @@ pub struct Mesh<'a> {
 
 const NO: u32 = u32::MAX;
 
-/// Rounds of cutting out orientation clashes at most.
+/// Rounds of cutting out orientation clashes at most (and of pinches).
 const REPAIRS: u32 = 3;
+/// Rounds of cutting out crossing or folded faces at most.
+const UNTANGLE_ROUNDS: u32 = 8;
 
 /// Faces of an edge, found by binary search in the sorted `(edge key, face)` table.
 pub(super) fn faces_of(table: &[(u64, u32)], key: u64) -> &[(u64, u32)] {
@@ -147,6 +158,119 @@ pub(super) fn dir(c: [u32; 3], u: u32, v: u32) -> i32 {
         }
     }
     0
+}
+
+/// Marks in `cut` both faces of every pair of `faces` (over `generators`) that
+/// intersect other than at what they share ([`faces_intersect`], exact), and
+/// of every edge whose two faces are folded onto each other ([`folded`]).
+/// Returns the pairs marked. Candidates come from a [`FaceGrid`]: O(F k) for
+/// k faces near a face, O(F) scratch.
+fn mark_tangles<'b, S: Alloc<'b>>(
+    s: &S,
+    faces: &[[u32; 3]],
+    generators: &[V3],
+    cut: &mut [bool],
+) -> Result<u32> {
+    s.scratch(|t| {
+        let at = |c: u32| to_d3(generators.get(c as usize).copied().unwrap_or([0.0; 3]));
+        let corners = |f: u32| faces[f as usize].map(at);
+        let mut pairs = 0;
+        let mut mark = |a: u32, b: u32| {
+            pairs += 1;
+            for x in [a, b] {
+                if let Some(c) = cut.get_mut(x as usize) {
+                    *c = true;
+                }
+            }
+        };
+        let grid = FaceGrid::try_new_in(t, generators, faces)?;
+        grid.for_each_overlapping_pair(|a, b| {
+            let (fa, fb) = (faces[a as usize], faces[b as usize]);
+            if faces_intersect(fa, &corners(a), fb, &corners(b)) {
+                mark(a, b);
+            }
+        });
+        let table = edge_table(t, faces)?;
+        let mut i = 0;
+        while i < table.len() {
+            let k = table[i].0;
+            let run = faces_of(&table[i..], k);
+            if let [(_, f), (_, g)] = run {
+                let (u, v) = ((k >> 32) as u32, k as u32);
+                let third = |f: u32| {
+                    let t = faces[f as usize];
+                    t.into_iter().find(|&c| c != u && c != v).unwrap_or(u)
+                };
+                if folded(at(u), at(v), at(third(*f)), at(third(*g))) {
+                    mark(*f, *g);
+                }
+            }
+            i += run.len().max(1);
+        }
+        Ok(pairs)
+    })
+}
+
+/// A closed piece of fewer faces than this, beside a piece at least
+/// [`BUBBLE_RATIO`] times larger, is a bubble.
+const BUBBLE_FACES: usize = 20;
+/// See [`BUBBLE_FACES`].
+const BUBBLE_RATIO: usize = 10;
+
+/// Removes from `faces[..nf]` the bubbles: closed edge-connected pieces of
+/// fewer than [`BUBBLE_FACES`] faces while another piece has at least
+/// [`BUBBLE_RATIO`] times as many (a small object of its own is as large as
+/// its neighbours and stays). Returns the faces kept (compacted to the front),
+/// the bubbles removed and the pieces left. O(F log F).
+fn drop_bubbles<'b, S: Alloc<'b>>(
+    s: &S,
+    faces: &mut [[u32; 3]],
+    nf: usize,
+) -> Result<(usize, u32, u32)> {
+    s.scratch(|t| {
+        let table = edge_table(t, &faces[..nf])?;
+        let mut pieces = UnionFind::try_new_in(t, nf)?;
+        let open = t.try_alloc_slice::<bool>(nf, false)?;
+        let mut i = 0;
+        while i < table.len() {
+            let k = table[i].0;
+            let run = faces_of(&table[i..], k);
+            if let [(_, f)] = run {
+                open[*f as usize] = true;
+            }
+            for w in run.windows(2) {
+                pieces.union(w[0].1, w[1].1);
+            }
+            i += run.len().max(1);
+        }
+        let root = pieces.into_roots();
+        let size = t.try_alloc_slice::<u32>(nf, 0)?;
+        let closed = t.try_alloc_slice::<bool>(nf, true)?;
+        for f in 0..nf {
+            let r = root[f] as usize;
+            size[r] += 1;
+            closed[r] &= !open[f];
+        }
+        let largest = size.iter().copied().max().unwrap_or(0) as usize;
+        let bubble = |r: usize| {
+            let n = size[r] as usize;
+            closed[r] && n < BUBBLE_FACES && n * BUBBLE_RATIO <= largest
+        };
+        let pieces = |drop: bool| {
+            (0..nf)
+                .filter(|&r| root[r] as usize == r && bubble(r) == drop)
+                .count() as u32
+        };
+        let (dropped, kept) = (pieces(true), pieces(false));
+        let mut w = 0;
+        for f in 0..nf {
+            if !bubble(root[f] as usize) {
+                faces[w] = faces[f];
+                w += 1;
+            }
+        }
+        Ok((w, dropped, kept))
+    })
 }
 
 /// Marks in `cut` the faces to cut out at pinched generators: at each of the
@@ -210,6 +334,57 @@ fn mark_pinches<'b, S: Alloc<'b>>(
         }
         Ok(pinched.iter().filter(|&&p| p).count() as u32)
     })
+}
+
+/// Whether the faces `new`, which replace `faces[r]` for each `r` of
+/// `replaced`, cross no other face of `faces` (exact test, candidates by
+/// bounding box) and fold onto no face they share an edge with. O(faces).
+pub(super) fn untangled(
+    faces: &[[u32; 3]],
+    replaced: &[usize],
+    new: &[[u32; 3]],
+    generators: &[V3],
+) -> bool {
+    let at = |c: u32| to_d3(generators.get(c as usize).copied().unwrap_or([0.0; 3]));
+    let corners = |f: [u32; 3]| f.map(at);
+    let bbox = |t: &[[f64; 3]; 3]| {
+        let lo: [f64; 3] = core::array::from_fn(|k| t[0][k].min(t[1][k]).min(t[2][k]));
+        let hi: [f64; 3] = core::array::from_fn(|k| t[0][k].max(t[1][k]).max(t[2][k]));
+        (lo, hi)
+    };
+    let others = faces
+        .iter()
+        .enumerate()
+        .filter(|(h, _)| !replaced.contains(h))
+        .map(|(_, &f)| f);
+    for (i, &a) in new.iter().enumerate() {
+        let pa = corners(a);
+        let (lo, hi) = bbox(&pa);
+        let earlier = new[..i].iter().copied();
+        for b in others.clone().chain(earlier) {
+            let pb = corners(b);
+            let (blo, bhi) = bbox(&pb);
+            if (0..3).any(|k| lo[k] > bhi[k] || blo[k] > hi[k]) {
+                continue;
+            }
+            if faces_intersect(a, &pa, b, &pb) {
+                return false;
+            }
+            // A shared edge: the two must not fold onto each other.
+            for k in 0..3 {
+                let (u, v) = (a[k], a[(k + 1) % 3]);
+                if b.contains(&u) && b.contains(&v) {
+                    let third = |f: [u32; 3]| f.into_iter().find(|&c| c != u && c != v);
+                    if let (Some(c1), Some(c2)) = (third(a), third(b)) {
+                        if folded(at(u), at(v), at(c1), at(c2)) {
+                            return false;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    true
 }
 
 /// A face's normal, not normalised (twice its area long).
@@ -298,8 +473,9 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
         let mut nf = nf;
         let mut filled = Filled::default();
         let mut repaired = 0u32;
-        let (mut unpinched, mut pinched) = (0u32, 0u32);
-        let (components, non_orientable) = loop {
+        let (mut unpinched, mut pinched, mut untangled, mut widened) = (0u32, 0u32, 0u32, 0u32);
+        let widen = s.try_alloc_slice::<bool>(faces.len(), false)?;
+        let (_, non_orientable) = loop {
             clash[..nf].fill(false);
             let (components, non_orientable) = orient(s, &mut faces[..nf], generators, clash)?;
             if max_hole == 0 {
@@ -308,6 +484,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             // Close the holes; a clash (the selection folded over somewhere, which
             // edge constraints cannot see) is cut out and closed again, a few
             // times at most.
+            widen[..nf].fill(false);
             let more = fill_holes(
                 s,
                 &mut faces[..fill_end],
@@ -315,6 +492,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
                 generators,
                 open,
                 along,
+                widen,
                 max_hole,
                 tol,
             )?;
@@ -327,6 +505,38 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
                 // A generator whose faces form several fans (the surface pinched
                 // there) keeps its largest fan; the others are cut out and their
                 // holes closed without it, so no vertex needs splitting in place.
+                // Faces that cross others (exact test) or fold onto their
+                // neighbour are cut out and their holes closed again.
+                if untangled < UNTANGLE_ROUNDS {
+                    clash[..nf].fill(false);
+                    let crossing = mark_tangles(s, &faces[..nf], generators, clash)?;
+                    if crossing > 0 {
+                        untangled += 1;
+                        let mut w = 0;
+                        for f in 0..nf {
+                            if !clash[f] {
+                                faces[w] = faces[f];
+                                w += 1;
+                            }
+                        }
+                        nf = w;
+                        continue;
+                    }
+                }
+                // A hole no ear could close cleanly is widened by the faces
+                // around it and closed again.
+                if widened < UNTANGLE_ROUNDS && widen[..nf].contains(&true) {
+                    widened += 1;
+                    let mut w = 0;
+                    for f in 0..nf {
+                        if !widen[f] {
+                            faces[w] = faces[f];
+                            w += 1;
+                        }
+                    }
+                    nf = w;
+                    continue;
+                }
                 if unpinched < REPAIRS {
                     clash[..nf].fill(false);
                     let pinches = mark_pinches(s, &faces[..nf], m, clash)?;
@@ -383,6 +593,9 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             }
             Ok(w)
         })?;
+        // Small closed pieces beside a large surface (bubbles at a pinch) go;
+        // their clusters are then inserted into the surface like any other.
+        let (nf, bubbles, components) = drop_bubbles(s, faces, nf)?;
         // Clusters the selection skipped go into the mesh.
         let (nf, inserted) = insert_skipped(s, faces, nf, generators, members, tol)?;
         let faces = &mut faces[..nf];
@@ -454,6 +667,8 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             boundary_edges: boundary,
             components,
             non_orientable,
+            bubbles_removed: bubbles,
+            tangled_pairs: 0,
             pinches_repaired: pinched,
             split_vertices: nv - distinct,
             dropped_faces: dropped,
@@ -540,6 +755,11 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
                 .fold(0.0f32, f32::max);
             vertices[v] = [0, 1, 2].map(|i| g[i] + reach * d[i]);
         }
+        // What repair could not resolve, measured on the final positions.
+        stats.tangled_pairs = s.scratch(|t| {
+            let cut = t.try_alloc_slice::<bool>(nf, false)?;
+            mark_tangles(t, triangles, vertices, cut)
+        })?;
         // How far the data is from this mesh; the farthest point of every
         // cluster beyond `max_distance` goes to `uncovered` for refinement.
         let far = s.scratch(|t| -> Result<u32> {

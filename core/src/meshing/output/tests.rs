@@ -51,7 +51,7 @@ fn fill(faces: &[[u32; 3]], v: &[V3], max_hole: u32) -> (Vec<[u32; 3]>, Filled, 
     all[..nf].copy_from_slice(faces);
     let clash = arena.try_alloc_slice::<bool>(all.len(), false).unwrap();
     orient(&arena, &mut all[..nf], v, clash).unwrap();
-    let filled = fill_holes(&arena, all, nf, v, &[], &mut [], max_hole, 1e-6).unwrap();
+    let filled = fill_holes(&arena, all, nf, v, &[], &mut [], &mut [], max_hole, 1e-6).unwrap();
     let total = nf + filled.faces;
     clash.fill(false);
     let (_, bad) = orient(&arena, &mut all[..total], v, clash).unwrap();
@@ -89,15 +89,15 @@ fn holes_longer_than_the_limit_stay_open() {
 }
 
 #[test]
-fn an_ear_never_repeats_an_existing_edge() {
-    // A flat sheet of two triangles sharing edge 0-2: its outline 0-1-2-3 is
-    // one hole whose ears at 1 and 3 would add 0-2 a second time (a third face
-    // on it); the fill must use the diagonal 1-3 instead.
-    let v = vec![
+fn an_ear_never_repeats_an_existing_edge_nor_stacks_onto_the_mesh() {
+    // Two triangles sharing edge 0-2, bent along it: the outline 0-1-2-3 is one
+    // hole whose ears at 1 and 3 would add 0-2 a second time (a third face on
+    // it); the fill must use the diagonal 1-3 instead, closing a tetrahedron.
+    let mut v = vec![
         [0.0, 0.0, 0.0],
         [1.0, 0.0, 0.0],
         [1.0, 1.0, 0.0],
-        [0.0, 1.0, 0.0],
+        [0.0, 1.0, 1.0],
     ];
     let f = [[0u32, 1, 2], [0, 2, 3]];
     let (out, filled, bad) = fill(&f, &v, 64);
@@ -106,4 +106,10 @@ fn an_ear_never_repeats_an_existing_edge() {
     for t in &out[2..] {
         assert!(t.contains(&1) && t.contains(&3), "{t:?}");
     }
+    // Flat, the same filling would lie on the sheet (faces stacked on faces):
+    // the hole stays open.
+    v[3] = [0.0, 1.0, 0.0];
+    let (out, filled, _) = fill(&f, &v, 64);
+    assert_eq!((filled.holes, filled.faces, filled.left), (0, 0, 1));
+    assert_eq!(out.len(), 2);
 }
