@@ -265,7 +265,7 @@ impl ReconstructReport {
              mesh       {} vertices, {} faces, {} components, {closed}; {} skipped clusters inserted\n\
              {}\
              border     {} clusters on the border of the data, {} boundary loops kept open along it\n\
-             repair     {} holes closed with {} faces, {} left open; {} orientation clashes cut out; {} pinches re-meshed, {} vertices split\n\
+             repair     {} holes closed with {} faces, {} left open; {} orientation clashes cut out; {} pinches re-meshed, {} bubbles removed, {} vertices split; {} crossing or folded face pairs left\n\
              {}",
             self.input.text(),
             cl.clusters,
@@ -295,7 +295,9 @@ impl ReconstructReport {
             mesh.holes_left,
             mesh.repairs,
             mesh.pinches_repaired,
+            mesh.bubbles_removed,
             mesh.split_vertices,
+            mesh.tangled_pairs,
             self.run.text(self.input.points, ""),
         )
     }
@@ -332,6 +334,8 @@ impl ReconstructReport {
             .num("components", mesh.components as f64)
             .num("non_orientable_components", mesh.non_orientable as f64)
             .num("pinches_repaired", mesh.pinches_repaired as f64)
+            .num("bubbles_removed", mesh.bubbles_removed as f64)
+            .num("tangled_pairs", mesh.tangled_pairs as f64)
             .num("split_vertices", mesh.split_vertices as f64)
             .num("border_clusters", m.border_clusters as f64)
             .num("open_loops", mesh.open_loops as f64)

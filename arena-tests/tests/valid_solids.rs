@@ -1,0 +1,107 @@
+//! What a user of a closed model asks of the mesh, checked by the host's
+//! evaluator (an exact self-intersection test and a genus count of its own, not
+//! core's statistics): a valid solid of the sampled surface's genus, with every
+//! cluster of the data in it.
+
+use arena_tests::cloud;
+use std::mem::MaybeUninit;
+use vsaqem_core::sample::Shape;
+use vsaqem_core::{arena_bytes, reconstruct, Arena, Params, Silent, V3};
+
+/// The closed generated shapes and their genus.
+const CLOSED: [(Shape, u64); 5] = [
+    (Shape::Sphere, 0),
+    (Shape::Torus, 1),
+    (Shape::Box, 0),
+    (Shape::Cylinder, 0),
+    (Shape::Demo, 0),
+];
+
+fn f64s(v: &[V3]) -> Vec<[f64; 3]> {
+    v.iter().map(|p| p.map(f64::from)).collect()
+}
+
+#[test]
+fn closed_generated_shapes_are_valid_solids_of_their_genus_with_every_cluster_in_the_mesh() {
+    for (shape, genus) in CLOSED {
+        let pts = cloud(shape, 20_000, 1);
+        for clusters in [250, 500, 1000, 2000] {
+            let params = Params {
+                clusters,
+                ..Params::default()
+            };
+            let mut buf = vec![MaybeUninit::uninit(); arena_bytes(pts.len(), &params)];
+            let arena = Arena::new(&mut buf);
+            let r = reconstruct(&arena, &pts, None, &params, &mut Silent)
+                .unwrap_or_else(|e| panic!("{shape:?} {clusters}: {e}"));
+            let (v, t) = (r.mesh.vertices, r.mesh.triangles);
+            let e = vsaqem::eval::evaluate(&f64s(&pts), &f64s(v), t, 1000);
+            let what = format!(
+                "{shape:?} {clusters}: {:?} {:?} {:?}",
+                e.topology, e.validity, r.meshing.mesh
+            );
+            assert!(e.is_valid_solid(Some(genus)), "not a valid solid: {what}");
+            // Every cluster with points is a vertex of the mesh, or was merged
+            // with one whose generator is within 1e-6 of the diagonal of its own.
+            let c = &r.clustered.clusters;
+            let tol2 = (1e-6 * r.clustered.bounds.diag).powi(2);
+            let mut has_points = vec![false; c.generators.len()];
+            for &l in c.labels {
+                has_points[l as usize] = true;
+            }
+            let mut vertex = vec![false; c.generators.len()];
+            for &j in r.mesh.vertex_cluster {
+                vertex[j as usize] = true;
+            }
+            for (j, g) in c.generators.iter().enumerate() {
+                let in_mesh = vertex[j]
+                    || c.generators
+                        .iter()
+                        .enumerate()
+                        .any(|(i, h)| vertex[i] && vsaqem_core::math::dist2(*g, *h) <= tol2);
+                assert!(
+                    !has_points[j] || in_mesh,
+                    "cluster {j} of {shape:?} at {clusters} clusters is left out: {what}"
+                );
+            }
+            assert_eq!(r.meshing.mesh.uncovered_clusters, 0, "{what}");
+            assert_eq!(r.meshing.mesh.split_vertices, 0, "{what}");
+            assert_eq!(r.meshing.mesh.tangled_pairs, 0, "{what}");
+        }
+    }
+}
+
+#[test]
+fn an_error_bound_is_met_on_closed_shapes_as_an_independent_evaluation_measures_it() {
+    for (shape, _) in CLOSED {
+        let pts = cloud(shape, 20_000, 1);
+        for bound in [0.01f32, 0.005] {
+            let params = Params {
+                max_error: bound,
+                ..Params::default()
+            };
+            let mut buf = vec![MaybeUninit::uninit(); arena_bytes(pts.len(), &params)];
+            let arena = Arena::new(&mut buf);
+            let r = reconstruct(&arena, &pts, None, &params, &mut Silent)
+                .unwrap_or_else(|e| panic!("{shape:?} {bound}: {e}"));
+            let e =
+                vsaqem::eval::evaluate(&f64s(&pts), &f64s(r.mesh.vertices), r.mesh.triangles, 0);
+            let max = e.rel(e.point_to_mesh.stats.max);
+            eprintln!(
+                "{shape:?} --max-error {bound}: max {max:.5} (core {:.5}), {} vertices, {} rounds",
+                r.meshing.mesh.distance.max,
+                r.mesh.vertices.len(),
+                r.meshing.refine_rounds
+            );
+            assert!(
+                max <= bound as f64,
+                "{shape:?} {bound}: farthest point at {max}"
+            );
+            assert!(
+                e.is_valid_solid(None),
+                "{shape:?} {bound}: {:?}",
+                e.validity
+            );
+        }
+    }
+}
