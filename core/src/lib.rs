@@ -106,6 +106,7 @@ pub use clustering::{Clustered, Stats};
 pub use error::{Degeneracy, Error, Result};
 pub use math::V3;
 pub use meshing::distance::MeshDistance;
+pub use meshing::fit::FitStats;
 pub use meshing::output::{Mesh, MeshStats};
 pub use meshing::problem::{selection_problem, SelectionProblem};
 pub use meshing::select::SelectStats;

@@ -23,6 +23,7 @@ pub mod border;
 pub mod candidates;
 pub mod distance;
 pub mod face_grid;
+pub mod fit;
 pub mod output;
 pub mod problem;
 pub mod score;
