@@ -65,7 +65,10 @@
 //! 7. [`problem`](meshing::problem) and [`select`](meshing::select): the exact 0/1 choice of
 //!    facets under the edge rule (Eq. 7-8), by branch-and-bound.
 //! 8. [`output`](meshing::output): an oriented, edge- and vertex-manifold mesh;
-//!    small holes closed, loops along the data's border kept open.
+//!    small holes closed, loops along the data's border kept open; its vertices
+//!    then [`fit`](meshing::fit) to the data by regularised least squares
+//!    (boundary vertices stay, no face turns over), and the points' distances
+//!    to it measured.
 //! 9. Refinement ([`Params::refine_rounds`]): where a round leaves clusters without
 //!    a face, they are split and the mesh is made again.
 //!
@@ -106,6 +109,7 @@ pub use clustering::{Clustered, Stats};
 pub use error::{Degeneracy, Error, Result};
 pub use math::V3;
 pub use meshing::distance::MeshDistance;
+pub use meshing::fit::FitStats;
 pub use meshing::output::{Mesh, MeshStats};
 pub use meshing::problem::{selection_problem, SelectionProblem};
 pub use meshing::select::SelectStats;

@@ -70,6 +70,12 @@ pub struct Params {
     pub border_angle: f32,
     /// Branch-and-bound search nodes allowed in facet selection. Default 200.
     pub node_limit: u64,
+    /// Rounds of fitting the mesh's vertices to the data
+    /// ([`crate::meshing::fit`]): each projects every point onto its nearest
+    /// face and moves the vertices (not those on the boundary) by regularised
+    /// least squares towards them, never turning a face over. 0 turns fitting
+    /// off. Default 3.
+    pub fit_rounds: u32,
     /// Rounds of refinement where clusters are left out of the mesh (each round
     /// splits them and selects again). Default 0.
     pub refine_rounds: u32,
@@ -139,6 +145,7 @@ impl Default for Params {
             max_hole: 64,
             border_angle: 150.0,
             node_limit: 200,
+            fit_rounds: 3,
             refine_rounds: 0,
             max_error: 0.0,
             mesh_bytes_per_cluster: 0,

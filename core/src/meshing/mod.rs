@@ -14,7 +14,10 @@
 //! 5. [`select`]: the exact 0/1 choice of facets by
 //!    branch-and-bound.
 //! 6. [`output`]: the selected facets as a mesh: edge- and vertex-manifold,
-//!    oriented, small holes closed, loops along the data's border kept open.
+//!    oriented, small holes closed, loops along the data's border kept open;
+//!    [`fit`] then moves its vertices (not the boundary's) onto the data by
+//!    regularised least squares, and [`distance`] measures how far the
+//!    points are from it.
 //!
 //! [`reconstruct`](crate::reconstruct) runs one round of these stages in a
 //! scratch scope, and another after refinement.
@@ -23,6 +26,7 @@ pub mod border;
 pub mod candidates;
 pub mod distance;
 pub mod face_grid;
+pub mod fit;
 pub mod intersect;
 pub mod output;
 pub mod problem;
@@ -110,6 +114,7 @@ pub(crate) fn try_mesh_round_in<'a>(
             p.open,
             p.moved,
             params.max_hole,
+            params.fit_rounds,
             diag,
             output,
             uncovered,

@@ -41,6 +41,10 @@ pub struct MeshArgs {
     /// Branch-and-bound node limit of the facet selection.
     #[arg(long, default_value_t = Params::default().node_limit)]
     pub node_limit: u64,
+    /// Rounds of fitting the mesh's vertices to the data by regularised least
+    /// squares (boundary vertices stay, no face turns over; 0: off).
+    #[arg(long, value_name = "N", default_value_t = Params::default().fit_rounds)]
+    pub fit_rounds: u32,
     /// Refinement rounds where parts of the data are left out of the mesh.
     #[arg(long, default_value_t = Params::default().refine_rounds)]
     pub refine_rounds: u32,
@@ -94,6 +98,7 @@ impl Cmd {
             max_hole: self.mesh.max_hole,
             border_angle: self.mesh.border_angle,
             refine_rounds: self.mesh.refine_rounds,
+            fit_rounds: self.mesh.fit_rounds,
             max_error: self.mesh.max_error,
             mesh_bytes_per_cluster: self.mesh.mesh_bytes_per_cluster,
             ..self.clean.apply(self.cluster.params())
@@ -210,6 +215,18 @@ impl ReconstructReport {
         }
     }
 
+    fn fit_text(&self) -> String {
+        let fit = &self.meshing.mesh.fit;
+        if fit.rounds == 0 {
+            return "fit        none (--fit-rounds 0, or no faces)\n".to_string();
+        }
+        format!(
+            "fit        {} vertices moved onto the data in {} rounds, {} moves taken back \
+             (a face would turn over or collapse)\n",
+            fit.moved, fit.rounds, fit.reverted
+        )
+    }
+
     fn distance_text(&self) -> String {
         let d = &self.meshing.mesh.distance;
         let bound = match self.max_error_missed() {
@@ -264,6 +281,7 @@ impl ReconstructReport {
              selection  {solver}, {} independent parts (largest {} facets), {} facets fixed by propagation\n\
              mesh       {} vertices, {} faces, {} components, {closed}; {} skipped clusters inserted\n\
              {}\
+             {}\
              border     {} clusters on the border of the data, {} boundary loops kept open along it\n\
              repair     {} holes closed with {} faces, {} left open; {} orientation clashes cut out; {} pinches re-meshed, {} bubbles removed, {} vertices split; {} crossing or folded face pairs left\n\
              {}",
@@ -287,6 +305,7 @@ impl ReconstructReport {
             mesh.faces,
             mesh.components,
             mesh.inserted_clusters,
+            self.fit_text(),
             self.distance_text(),
             m.border_clusters,
             mesh.open_loops,
@@ -346,6 +365,9 @@ impl ReconstructReport {
             .num("inserted_clusters", mesh.inserted_clusters as f64)
             .num("uncovered_clusters", mesh.uncovered_clusters as f64)
             .num("uncovered_points", mesh.uncovered_points as f64)
+            .num("fit_rounds", mesh.fit.rounds as f64)
+            .num("fitted_vertices", mesh.fit.moved as f64)
+            .num("fit_reverted", mesh.fit.reverted as f64)
             .num("distance_max_relative", mesh.distance.max as f64)
             .num("distance_p99_relative", mesh.distance.p99 as f64)
             .num("distance_mean_relative", mesh.distance.mean as f64)

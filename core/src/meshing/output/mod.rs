@@ -40,6 +40,7 @@ use crate::math::{add, cross, dot, norm, sub, V3};
 use crate::meshing::candidates::{Candidates, Members};
 use crate::meshing::distance::{summarise, try_point_distances_in, MeshDistance};
 use crate::meshing::face_grid::FaceGrid;
+use crate::meshing::fit::{try_fit_vertices_in, FitStats, LAMBDA};
 use crate::meshing::intersect::{faces_intersect, folded};
 use crate::union_find::UnionFind;
 
@@ -93,7 +94,10 @@ pub struct MeshStats {
     pub uncovered_clusters: u32,
     /// Points in those clusters.
     pub uncovered_points: u32,
-    /// How far the points are from the mesh (relative to the diagonal).
+    /// What fitting the vertices to the data did ([`crate::meshing::fit`]).
+    pub fit: FitStats,
+    /// How far the points are from the mesh (relative to the diagonal), after
+    /// fitting.
     pub distance: MeshDistance,
     /// Clusters with a point farther from the mesh than the round allowed
     /// ([`Output::IfFaithful`]); 0 when it allowed any distance.
@@ -408,7 +412,8 @@ pub enum Output {
 }
 
 /// Build the mesh of the `selected` candidate facets, closing boundary loops of
-/// at most `max_hole` edges (0: none). `diag` is the bounding-box diagonal (for
+/// at most `max_hole` edges (0: none), and fit its vertices to `points` in
+/// `fit_rounds` rounds (0: none; see [`crate::meshing::fit`]). `diag` is the bounding-box diagonal (for
 /// the degeneracy tolerance of filled faces). Working memory comes from `work`;
 /// the result is allocated in `out` (which may be the same allocator), unless
 /// `output` says it is not wanted (then `None`, and `out` is untouched). The
@@ -428,6 +433,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
     open: &[bool],
     moved: &[V3],
     max_hole: u32,
+    fit_rounds: u32,
     diag: f32,
     output: Output,
     uncovered: &mut [u32],
@@ -680,6 +686,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             inserted_clusters: inserted.clusters,
             uncovered_clusters: uncovered_clusters as u32,
             uncovered_points,
+            fit: FitStats::default(),
             distance: MeshDistance::default(),
             far_clusters: 0,
         };
@@ -755,6 +762,27 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
                 .fold(0.0f32, f32::max);
             vertices[v] = [0, 1, 2].map(|i| g[i] + reach * d[i]);
         }
+        // The vertices fitted to the data, moving no boundary vertex; a move
+        // that makes faces cross or fold is taken back.
+        let before = s.try_alloc_copy(vertices)?;
+        stats.fit = try_fit_vertices_in(s, points, vertices, triangles, fit_rounds, LAMBDA)?;
+        stats.fit.reverted += s.scratch(|t| -> Result<u32> {
+            let cut = t.try_alloc_slice::<bool>(nf, false)?;
+            if mark_tangles(t, triangles, vertices, cut)? == 0 {
+                return Ok(0);
+            }
+            let mut back = 0;
+            for (f, _) in cut.iter().enumerate().filter(|(_, &c)| c) {
+                for &v in &triangles[f] {
+                    let v = v as usize;
+                    if vertices[v] != before[v] {
+                        vertices[v] = before[v];
+                        back += 1;
+                    }
+                }
+            }
+            Ok(back)
+        })?;
         // What repair could not resolve, measured on the final positions.
         stats.tangled_pairs = s.scratch(|t| {
             let cut = t.try_alloc_slice::<bool>(nf, false)?;
