@@ -111,7 +111,22 @@ pub(crate) struct Ctx<'p, 'a> {
     pub lambda_w: f32,
 }
 
-impl Ctx<'_, '_> {
+impl<'p, 'a> Ctx<'p, 'a> {
+    /// The context of clustering `points` with `params`.
+    pub fn new(
+        points: &'p [V3],
+        nb: &'p Neighbours<'a>,
+        planes: &'p Planes<'a>,
+        params: &Params,
+    ) -> Self {
+        Ctx {
+            points,
+            nb,
+            planes,
+            lambda_w: params.lambda * planes.mean_weight,
+        }
+    }
+
     /// Seed Eq. 4.
     #[inline]
     pub fn cost(&self, i: usize, c: V3) -> f32 {
@@ -215,12 +230,7 @@ impl<'a> ClusterState<'a> {
         params: &Params,
         progress: &mut dyn Progress,
     ) -> Result<usize> {
-        let ctx = Ctx {
-            points,
-            nb,
-            planes,
-            lambda_w: params.lambda * planes.mean_weight,
-        };
+        let ctx = Ctx::new(points, nb, planes, params);
         let m = self.m;
         let room = self.generators.len() - m;
         let take = targets.len().min(room);
@@ -277,12 +287,7 @@ impl<'a> ClusterState<'a> {
         params: &Params,
         progress: &mut dyn Progress,
     ) -> Result<usize> {
-        let ctx = Ctx {
-            points,
-            nb,
-            planes,
-            lambda_w: params.lambda * planes.mean_weight,
-        };
+        let ctx = Ctx::new(points, nb, planes, params);
         let m = self.m;
         let mut added = 0;
         for &p in at {
@@ -373,12 +378,7 @@ pub fn try_cluster_state_in<'a>(
     progress: &mut dyn Progress,
 ) -> Result<ClusterState<'a>> {
     let n = points.len();
-    let ctx = Ctx {
-        points,
-        nb,
-        planes,
-        lambda_w: params.lambda * planes.mean_weight,
-    };
+    let ctx = Ctx::new(points, nb, planes, params);
     let planned = params.iterations.max(1) + params.split_rounds * params.split_iterations.max(1);
     tick(progress, Stage::Clustering, 0, planned as u64)?;
     let labels = arena.try_alloc_slice::<u32>(n, NONE)?;

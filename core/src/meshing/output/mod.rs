@@ -391,6 +391,19 @@ pub(super) fn untangled(
     true
 }
 
+/// Moves the faces of `faces[..nf]` not marked in `marked` to the front, in
+/// order; returns how many there are.
+fn retain_unmarked(faces: &mut [[u32; 3]], nf: usize, marked: &[bool]) -> usize {
+    let mut w = 0;
+    for f in 0..nf {
+        if !marked.get(f).copied().unwrap_or(false) {
+            faces[w] = faces[f];
+            w += 1;
+        }
+    }
+    w
+}
+
 /// A face's normal, not normalised (twice its area long).
 pub(super) fn face_normal(p: [V3; 3]) -> V3 {
     cross(sub(p[1], p[0]), sub(p[2], p[0]))
@@ -518,14 +531,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
                     let crossing = mark_tangles(s, &faces[..nf], generators, clash)?;
                     if crossing > 0 {
                         untangled += 1;
-                        let mut w = 0;
-                        for f in 0..nf {
-                            if !clash[f] {
-                                faces[w] = faces[f];
-                                w += 1;
-                            }
-                        }
-                        nf = w;
+                        nf = retain_unmarked(faces, nf, clash);
                         continue;
                     }
                 }
@@ -533,14 +539,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
                 // around it and closed again.
                 if widened < UNTANGLE_ROUNDS && widen[..nf].contains(&true) {
                     widened += 1;
-                    let mut w = 0;
-                    for f in 0..nf {
-                        if !widen[f] {
-                            faces[w] = faces[f];
-                            w += 1;
-                        }
-                    }
-                    nf = w;
+                    nf = retain_unmarked(faces, nf, widen);
                     continue;
                 }
                 if unpinched < REPAIRS {
@@ -549,14 +548,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
                     if pinches > 0 {
                         unpinched += 1;
                         pinched += pinches;
-                        let mut w = 0;
-                        for f in 0..nf {
-                            if !clash[f] {
-                                faces[w] = faces[f];
-                                w += 1;
-                            }
-                        }
-                        nf = w;
+                        nf = retain_unmarked(faces, nf, clash);
                         continue;
                     }
                 }
@@ -570,14 +562,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             // Only the faces on both sides of a clashing edge go: cutting their
             // whole neighbourhood opened holes too large to close (block, 250
             // clusters: 27 % of the points left uncovered).
-            let mut w = 0;
-            for f in 0..nf {
-                if !clash[f] {
-                    faces[w] = faces[f];
-                    w += 1;
-                }
-            }
-            nf = w;
+            nf = retain_unmarked(faces, nf, clash);
         };
         // A face none of whose edges has a second face (a stray triangle, or one
         // left when the faces around it were cut out) is a hole no ear can close
@@ -590,14 +575,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             for (f, x) in faces[..nf].iter().zip(stray.iter_mut()) {
                 *x = lone(f);
             }
-            let mut w = 0;
-            for f in 0..nf {
-                if !stray[f] {
-                    faces[w] = faces[f];
-                    w += 1;
-                }
-            }
-            Ok(w)
+            Ok(retain_unmarked(faces, nf, stray))
         })?;
         // Small closed pieces beside a large surface (bubbles at a pinch) go;
         // their clusters are then inserted into the surface like any other.
