@@ -248,6 +248,15 @@ impl<'a> FaceGrid<'a> {
     /// The face nearest to `p` and its squared distance (exact point-triangle
     /// distance; ties go to the lower face index), or `None` without faces.
     pub fn nearest(&self, p: V3) -> Option<(u32, f32)> {
+        self.nearest_from(p, None)
+    }
+
+    /// [`FaceGrid::nearest`], starting from face `hint` (a face near `p`, such
+    /// as its nearest before the vertices moved a little): its distance
+    /// prunes every cell farther away, so a good hint leaves one or two cells
+    /// to search. The answer is the nearest face whatever the hint; among
+    /// faces at exactly the same distance it may differ.
+    pub fn nearest_from(&self, p: V3, hint: Option<u32>) -> Option<(u32, f32)> {
         if self.entries.is_empty() || !p.iter().all(|v| v.is_finite()) {
             return None;
         }
@@ -260,6 +269,19 @@ impl<'a> FaceGrid<'a> {
             else {
                 return;
             };
+            // A face whose box is no nearer than the best cannot win.
+            if let Some((_, e)) = *best {
+                let (lo, hi) = bbox(&t);
+                let gap2: f32 = (0..3)
+                    .map(|k| {
+                        let d = (lo[k] - p[k]).max(p[k] - hi[k]).max(0.0);
+                        d * d
+                    })
+                    .sum();
+                if gap2 > e {
+                    return;
+                }
+            }
             let d2 = point_triangle_dist2(p, t[0], t[1], t[2]);
             let better = match *best {
                 None => true,
@@ -269,6 +291,9 @@ impl<'a> FaceGrid<'a> {
                 *best = Some((f, d2));
             }
         };
+        if let Some(h) = hint {
+            offer(h, &mut best);
+        }
         // The point's cell, unclamped (it may lie outside the grid).
         let cell: [i64; 3] = core::array::from_fn(|k| {
             let c = libm::floorf((p[k] - self.origin[k]) / self.h);
@@ -289,6 +314,17 @@ impl<'a> FaceGrid<'a> {
             .max()
             .unwrap_or(0);
         let reach = self.dims.iter().map(|&d| d as i64).max().unwrap_or(1) + gap;
+        // How far the point is inside its own cell (0 outside the grid).
+        let inset = if gap > 0 {
+            0.0
+        } else {
+            (0..3)
+                .map(|k| {
+                    let lo = self.origin[k] + cell[k] as f32 * self.h;
+                    (p[k] - lo).min(lo + self.h - p[k]).max(0.0)
+                })
+                .fold(f32::INFINITY, f32::min)
+        };
         let mut r = gap;
         loop {
             // Cells in ring r: (2r+1)^3 - (2r-1)^3; past the faces' count, scan.
@@ -312,8 +348,9 @@ impl<'a> FaceGrid<'a> {
                 },
             );
             best = found.get();
-            // Every face not yet seen lies at least r h away.
-            let bound = r as f32 * self.h;
+            // Every face not yet seen lies outside the block of rings 0..=r:
+            // at least r h plus the point's inset in its own cell away.
+            let bound = r as f32 * self.h + inset;
             match best {
                 Some((_, d2)) if d2 <= bound * bound => return best,
                 _ if r > reach => return best,

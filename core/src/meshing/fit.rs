@@ -33,7 +33,8 @@
 //!   [`move_allowed`] refuses a face, its vertices go back to where the round
 //!   found them, until no face is refused.
 //!
-//! Memory: scratch only, O(V + F), nothing per point: 73 bytes per vertex
+//! Memory: scratch only, O(n + V + F): 4 bytes per point (its nearest face,
+//! where the next round's search starts), 73 bytes per vertex
 //! (anchors, positions at the round's start, reach, a fixed flag, the
 //! accumulated normal equations, the start of its face list) and 36 per face
 //! (the matrix's off-diagonal terms, the vertex-to-face lists), plus the face
@@ -172,6 +173,9 @@ pub fn try_fit_vertices_in<'b, A: Alloc<'b>>(
         let rhs = s.try_alloc_slice::<[f64; 3]>(nv, [0.0; 3])?;
         let weight = s.try_alloc_slice::<u32>(nv, 0)?;
         let off = s.try_alloc_slice::<[f64; 3]>(nf, [0.0; 3])?;
+        // Each point's nearest face in the round before: where its search
+        // starts in the next (the faces move a little between rounds).
+        let hints = s.try_alloc_slice::<u32>(points.len(), u32::MAX)?;
         for _ in 0..rounds {
             diag.fill(0.0);
             rhs.fill([0.0; 3]);
@@ -179,10 +183,11 @@ pub fn try_fit_vertices_in<'b, A: Alloc<'b>>(
             off.fill([0.0; 3]);
             s.scratch(|t| -> Result<()> {
                 let grid = FaceGrid::try_new_in(t, &*vertices, triangles)?;
-                for &p in points {
-                    let Some((f, _)) = grid.nearest(p) else {
+                for (&p, h) in points.iter().zip(hints.iter_mut()) {
+                    let Some((f, _)) = grid.nearest_from(p, (*h != u32::MAX).then_some(*h)) else {
                         continue;
                     };
+                    *h = f;
                     let face = triangles[f as usize];
                     let Some(c) = corners_of(vertices, face) else {
                         continue;
