@@ -10,6 +10,7 @@ cd "$(dirname "$0")/.."
 bin=${VSAQEM:-target/release/vsaqem}
 clouds=${CLOUDS:-../shared/data/clouds}
 out=${OUT:-$(mktemp -d)}
+mkdir -p "$out"
 counts=${*:-250 500 1000 2000}
 [ -x "$bin" ] || cargo build --release -q -p vsaqem
 [ -d "$clouds" ] || { echo "skipped: $clouds not found"; exit 0; }
