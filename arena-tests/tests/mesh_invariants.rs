@@ -141,6 +141,22 @@ fn shared_clouds_give_clean_manifolds() {
                 path.display(),
                 stats
             );
+            // No vertex split in place: no two vertices at one position (the
+            // host's evaluator counts them), none made by core.
+            let f64s = |p: &[V3]| p.iter().map(|q| q.map(f64::from)).collect::<Vec<_>>();
+            let e = vsaqem::eval::evaluate(&f64s(&pts), &f64s(&v), &t, 0);
+            assert_eq!(
+                e.validity.coincident_vertices,
+                0,
+                "{} {clusters}",
+                path.display()
+            );
+            assert_eq!(
+                stats.mesh.split_vertices,
+                0,
+                "{} {clusters}",
+                path.display()
+            );
         }
     }
 }
