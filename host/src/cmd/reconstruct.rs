@@ -283,7 +283,7 @@ impl ReconstructReport {
              {}\
              {}\
              border     {} clusters on the border of the data, {} boundary loops kept open along it\n\
-             repair     {} holes closed with {} faces, {} left open; {} orientation clashes cut out; {} pinches re-meshed, {} bubbles removed, {} vertices split; {} crossing or folded face pairs left\n\
+             repair     {} holes closed with {} faces, {} left open; {} orientation clashes cut out; {} pinches re-meshed, {} thin parts joined, {} bubbles removed, {} vertices split; {} crossing or folded face pairs left\n\
              {}",
             self.input.text(),
             cl.clusters,
@@ -314,6 +314,7 @@ impl ReconstructReport {
             mesh.holes_left,
             mesh.repairs,
             mesh.pinches_repaired,
+            mesh.necks,
             mesh.bubbles_removed,
             mesh.split_vertices,
             mesh.tangled_pairs,
@@ -353,6 +354,7 @@ impl ReconstructReport {
             .num("components", mesh.components as f64)
             .num("non_orientable_components", mesh.non_orientable as f64)
             .num("pinches_repaired", mesh.pinches_repaired as f64)
+            .num("thin_parts_joined", mesh.necks as f64)
             .num("bubbles_removed", mesh.bubbles_removed as f64)
             .num("tangled_pairs", mesh.tangled_pairs as f64)
             .num("split_vertices", mesh.split_vertices as f64)

@@ -36,7 +36,8 @@ mod tests;
 use crate::arena::{Alloc, Arena};
 use crate::error::Result;
 use crate::math::to_d3;
-use crate::math::{add, cross, dot, norm, sub, V3};
+use crate::math::{add, cross, dist2, dot, norm, sub, V3};
+use crate::meshing::candidates::degenerate;
 use crate::meshing::candidates::{Candidates, Members};
 use crate::meshing::distance::{summarise, try_point_distances_in, MeshDistance};
 use crate::meshing::face_grid::FaceGrid;
@@ -71,6 +72,9 @@ pub struct MeshStats {
     /// Pairs of faces that still cross each other or fold onto each other
     /// after repair (0 is the aim: a valid solid).
     pub tangled_pairs: u32,
+    /// Thin parts joined to the surface (instead of cut out or dropped): by
+    /// a neck at a pinch, or by a tube from a bubble.
+    pub necks: u32,
     /// Extra vertices made to separate fans at non-manifold generators that
     /// pinch repair left (at the same position as the first: 0 is the aim).
     pub split_vertices: u32,
@@ -121,6 +125,8 @@ const NO: u32 = u32::MAX;
 
 /// Rounds of cutting out orientation clashes at most (and of pinches).
 const REPAIRS: u32 = 3;
+/// Rounds of joining thin parts by necks at most.
+const NECK_ROUNDS: u32 = 8;
 /// Rounds of cutting out crossing or folded faces at most.
 const UNTANGLE_ROUNDS: u32 = 8;
 
@@ -274,6 +280,282 @@ fn drop_bubbles<'b, S: Alloc<'b>>(
             }
         }
         Ok((w, dropped, kept))
+    })
+}
+
+/// Joins each bubble (see [`drop_bubbles`]) to the rest of the surface by a
+/// tube, where one fits: a face of the bubble and a face of another piece that
+/// face each other go, and six faces join the two triangular holes (corners
+/// paired so the tube twists least). The bubble is most often the tip of a
+/// thin part the selection closed on itself; joined, the tip stays in the mesh
+/// and the surface keeps its genus (one tube between two pieces makes no
+/// handle). Of each bubble's facing pairs the eight nearest are tried; a tube
+/// is made only when it shares no vertex with either face's other corners, its
+/// faces are not degenerate and it crosses or folds onto nothing
+/// ([`untangled`]). Faces are appended from `nf` while room is left below
+/// `cap`. Returns the face count and the tubes made. O(B F) per bubble of B
+/// faces.
+fn join_bubbles<'b, S: Alloc<'b>>(
+    s: &S,
+    faces: &mut [[u32; 3]],
+    nf: usize,
+    cap: usize,
+    generators: &[V3],
+    tol: f32,
+) -> Result<(usize, u32)> {
+    s.scratch(|t| {
+        let table = edge_table(t, &faces[..nf])?;
+        let mut pieces = UnionFind::try_new_in(t, nf)?;
+        let open = t.try_alloc_slice::<bool>(nf, false)?;
+        let mut i = 0;
+        while i < table.len() {
+            let k = table[i].0;
+            let run = faces_of(&table[i..], k);
+            if let [(_, f)] = run {
+                open[*f as usize] = true;
+            }
+            for w in run.windows(2) {
+                pieces.union(w[0].1, w[1].1);
+            }
+            i += run.len().max(1);
+        }
+        let root = pieces.into_roots();
+        let size = t.try_alloc_slice::<u32>(nf, 0)?;
+        let closed = t.try_alloc_slice::<bool>(nf, true)?;
+        for f in 0..nf {
+            let r = root[f] as usize;
+            size[r] += 1;
+            closed[r] &= !open[f];
+        }
+        let largest = size.iter().copied().max().unwrap_or(0) as usize;
+        let bubble = |r: usize| {
+            let n = size[r] as usize;
+            closed[r] && n < BUBBLE_FACES && n * BUBBLE_RATIO <= largest
+        };
+        let at = |c: u32| generators.get(c as usize).copied().unwrap_or([0.0; 3]);
+        let centroid = |f: [u32; 3]| {
+            let [a, b, c] = f.map(at);
+            [0, 1, 2].map(|k| (a[k] + b[k] + c[k]) / 3.0)
+        };
+        let normal = |f: [u32; 3]| face_normal(f.map(at));
+        let (mut nf, mut tubes) = (nf, 0u32);
+        let original = nf;
+        for r in 0..original {
+            if root[r] as usize != r || !bubble(r) || nf + 4 > cap {
+                continue;
+            }
+            // The eight nearest facing pairs (bubble face, other face).
+            let mut near = [(f32::INFINITY, 0usize, 0usize); 8];
+            for fb in (0..original).filter(|&f| root[f] as usize == r) {
+                let (cb, nb) = (centroid(faces[fb]), normal(faces[fb]));
+                for fa in (0..original).filter(|&f| root[f] as usize != r) {
+                    let (ca, na) = (centroid(faces[fa]), normal(faces[fa]));
+                    let gap = sub(cb, ca);
+                    if dot(na, nb) >= 0.0 || dot(gap, na) <= 0.0 || dot(gap, nb) >= 0.0 {
+                        continue;
+                    }
+                    let d = dot(gap, gap);
+                    if d < near[7].0 {
+                        near[7] = (d, fa, fb);
+                        near.sort_unstable_by(|x, y| x.0.total_cmp(&y.0));
+                    }
+                }
+            }
+            for &(d, fa, fb) in near.iter().filter(|x| x.0.is_finite()) {
+                let _ = d;
+                let (a, b) = (faces[fa], faces[fb]);
+                if a.iter().any(|x| b.contains(x)) {
+                    continue;
+                }
+                // Pair a[i] with b[(s - i) mod 3], the shift that twists least.
+                let shift = (0..3)
+                    .min_by(|&x, &y| {
+                        let cost = |sh: usize| -> f32 {
+                            (0..3)
+                                .map(|i| dist2(at(a[i]), at(b[(sh + 3 - i) % 3])))
+                                .sum()
+                        };
+                        cost(x).total_cmp(&cost(y))
+                    })
+                    .unwrap_or(0);
+                let bb = |i: usize| b[(shift + 6 - i) % 3];
+                let mut tube = [[0u32; 3]; 6];
+                for i in 0..3 {
+                    let j = (i + 1) % 3;
+                    tube[2 * i] = [a[i], a[j], bb(j)];
+                    tube[2 * i + 1] = [a[i], bb(j), bb(i)];
+                }
+                let flat = tube.iter().any(|f| {
+                    let [p, q, w] = f.map(at);
+                    degenerate(p, q, w, tol)
+                });
+                if flat || !untangled(&faces[..nf], &[fa, fb], &tube, generators) {
+                    continue;
+                }
+                faces[fa] = tube[0];
+                faces[fb] = tube[1];
+                faces[nf..nf + 4].copy_from_slice(&tube[2..]);
+                nf += 4;
+                tubes += 1;
+                break;
+            }
+        }
+        Ok((nf, tubes))
+    })
+}
+
+/// Joins, at pinched generators, a fan that belongs to another piece of the
+/// surface than the generator's largest fan (a thin part that the selection
+/// made a closed piece of its own, touching the rest at one vertex) to that
+/// fan by a neck: a face of each fan at the vertex goes, and four faces join
+/// the two holes, so the vertex has one fan and the pieces are one surface
+/// with no handle. Faces facing each other most closely are tried first; a
+/// neck is made only when its new edges are new, its faces not degenerate (edge
+/// or area below `tol`) and it crosses or folds onto no face ([`untangled`]).
+/// Faces are appended from `nf` while room is left below `cap`. Returns the
+/// new face count and the necks made. O(F log F) plus O(F) per neck tried.
+fn neck_pinches<'b, S: Alloc<'b>>(
+    s: &S,
+    faces: &mut [[u32; 3]],
+    nf: usize,
+    cap: usize,
+    generators: &[V3],
+    tol: f32,
+) -> Result<(usize, u32)> {
+    s.scratch(|t| {
+        let m = generators.len();
+        let table = edge_table(t, &faces[..nf])?;
+        let mut fans = UnionFind::try_new_in(t, 3 * nf)?;
+        let mut pieces = UnionFind::try_new_in(t, nf)?;
+        let corner = |f: u32, v: u32| -> u32 {
+            let k = faces[f as usize].iter().position(|&x| x == v).unwrap_or(0);
+            3 * f + k as u32
+        };
+        let mut i = 0;
+        while i < table.len() {
+            let k = table[i].0;
+            let run = faces_of(&table[i..], k);
+            if let [(_, f), (_, g)] = run {
+                for w in [(k >> 32) as u32, k as u32] {
+                    fans.union(corner(*f, w), corner(*g, w));
+                }
+            }
+            for w in run.windows(2) {
+                pieces.union(w[0].1, w[1].1);
+            }
+            i += run.len().max(1);
+        }
+        let fan = fans.into_roots();
+        let piece = pieces.into_roots();
+        let size = t.try_alloc_slice::<u32>(3 * nf, 0)?;
+        for &r in fan.iter() {
+            size[r as usize] += 1;
+        }
+        let best = t.try_alloc_slice::<u32>(m, NO)?;
+        for c in 0..3 * nf {
+            let (g, r) = (faces[c / 3][c % 3] as usize, fan[c]);
+            if let Some(b) = best.get_mut(g) {
+                if *b == NO || size[r as usize] > size[*b as usize] {
+                    *b = r;
+                }
+            }
+        }
+        // Corners grouped by generator, in corner order.
+        let order = t.try_alloc_slice::<u64>(3 * nf, 0)?;
+        for (c, o) in order.iter_mut().enumerate() {
+            *o = (faces[c / 3][c % 3] as u64) << 32 | c as u64;
+        }
+        order.sort_unstable();
+        let mut joined = UnionFind::try_new_in(t, nf)?;
+        let touched = t.try_alloc_slice::<bool>(cap.max(nf), false)?;
+        let mut added = [0u64; 64];
+        let mut n_added = 0usize;
+        let (mut nf, mut necks) = (nf, 0u32);
+        let at = |c: u32| generators.get(c as usize).copied().unwrap_or([0.0; 3]);
+        let centroid = |f: [u32; 3]| {
+            let [a, b, c] = f.map(at);
+            [0, 1, 2].map(|k| (a[k] + b[k] + c[k]) / 3.0)
+        };
+        let mut i = 0;
+        while i < order.len() {
+            let v = (order[i] >> 32) as u32;
+            let run = order[i..]
+                .iter()
+                .take_while(|&&o| (o >> 32) as u32 == v)
+                .count();
+            let group = &order[i..i + run];
+            i += run;
+            let Some(&b) = best.get(v as usize) else {
+                continue;
+            };
+            let face = |o: u64| (o as u32 as usize) / 3;
+            let Some(a_face) = group
+                .iter()
+                .map(|&o| face(o))
+                .find(|&f| fan[3 * f..3 * f + 3].contains(&b))
+            else {
+                continue;
+            };
+            for &ob in group {
+                let cb = ob as u32 as usize;
+                if fan[cb] == b || joined.find(piece[cb / 3]) == joined.find(piece[a_face]) {
+                    continue;
+                }
+                // The closest pair of a face of the largest fan and of this one.
+                let mut pick: Option<(f32, usize, usize)> = None;
+                for &oa in group.iter().filter(|&&o| fan[o as u32 as usize] == b) {
+                    for &oc in group.iter().filter(|&&o| fan[o as u32 as usize] == fan[cb]) {
+                        let (fa, fb) = (face(oa), face(oc));
+                        if touched[fa] || touched[fb] {
+                            continue;
+                        }
+                        let d = dist2(centroid(faces[fa]), centroid(faces[fb]));
+                        if pick.is_none_or(|(e, _, _)| d < e) {
+                            pick = Some((d, fa, fb));
+                        }
+                    }
+                }
+                let Some((_, fa, fb)) = pick else { continue };
+                let rot = |f: [u32; 3]| {
+                    let k = f.iter().position(|&x| x == v).unwrap_or(0);
+                    (f[(k + 1) % 3], f[(k + 2) % 3])
+                };
+                let ((a1, a2), (b1, b2)) = (rot(faces[fa]), rot(faces[fb]));
+                let new = [[v, b1, a2], [v, a1, b2], [a1, a2, b1], [a1, b1, b2]];
+                let fresh = |p: u32, q: u32| {
+                    faces_of(table, key(p, q)).is_empty() && !added[..n_added].contains(&key(p, q))
+                };
+                let distinct = a1 != b1 && a1 != b2 && a2 != b1 && a2 != b2;
+                if !distinct
+                    || nf + 2 > cap
+                    || n_added + 3 > added.len()
+                    || !(fresh(a2, b1) && fresh(a1, b2) && fresh(a1, b1))
+                    || new.iter().any(|f| {
+                        let [p, q, r] = f.map(at);
+                        degenerate(p, q, r, tol)
+                    })
+                    || !untangled(&faces[..nf], &[fa, fb], &new, generators)
+                {
+                    continue;
+                }
+                faces[fa] = new[0];
+                faces[fb] = new[1];
+                faces[nf] = new[2];
+                faces[nf + 1] = new[3];
+                for f in [fa, fb, nf, nf + 1] {
+                    touched[f] = true;
+                }
+                nf += 2;
+                for (p, q) in [(a2, b1), (a1, b2), (a1, b1)] {
+                    added[n_added] = key(p, q);
+                    n_added += 1;
+                }
+                joined.union(piece[fa], piece[fb]);
+                necks += 1;
+                break;
+            }
+        }
+        Ok((nf, necks))
     })
 }
 
@@ -493,6 +775,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
         let mut filled = Filled::default();
         let mut repaired = 0u32;
         let (mut unpinched, mut pinched, mut untangled, mut widened) = (0u32, 0u32, 0u32, 0u32);
+        let (mut necked, mut neck_count) = (0u32, 0u32);
         let widen = s.try_alloc_slice::<bool>(faces.len(), false)?;
         let (_, non_orientable) = loop {
             clash[..nf].fill(false);
@@ -542,6 +825,16 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
                     nf = retain_unmarked(faces, nf, widen);
                     continue;
                 }
+                // A thin part hanging at one vertex joins the surface by a neck.
+                if necked < NECK_ROUNDS {
+                    let (grown, necks) = neck_pinches(s, faces, nf, fill_end, generators, tol)?;
+                    if necks > 0 {
+                        necked += 1;
+                        neck_count += necks;
+                        nf = grown;
+                        continue;
+                    }
+                }
                 if unpinched < REPAIRS {
                     clash[..nf].fill(false);
                     let pinches = mark_pinches(s, &faces[..nf], m, clash)?;
@@ -579,6 +872,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
         })?;
         // Small closed pieces beside a large surface (bubbles at a pinch) go;
         // their clusters are then inserted into the surface like any other.
+        let (nf, tubes) = join_bubbles(s, faces, nf, faces.len() - 2 * m, generators, tol)?;
         let (nf, bubbles, components) = drop_bubbles(s, faces, nf)?;
         // Clusters the selection skipped go into the mesh.
         let (nf, inserted) = insert_skipped(s, faces, nf, generators, members, tol)?;
@@ -654,6 +948,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             bubbles_removed: bubbles,
             tangled_pairs: 0,
             pinches_repaired: pinched,
+            necks: neck_count + tubes,
             split_vertices: nv - distinct,
             dropped_faces: dropped,
             holes_filled: filled.holes,
@@ -740,9 +1035,9 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
                 .fold(0.0f32, f32::max);
             vertices[v] = [0, 1, 2].map(|i| g[i] + reach * d[i]);
         }
-        // The vertices fitted to the data, moving no boundary vertex; a move
-        // that makes faces cross or fold is taken back.
-        let before = s.try_alloc_copy(vertices)?;
+        // The vertices fitted to the data, moving no boundary vertex. A vertex
+        // of a face that then crosses another or folds onto its neighbour goes
+        // back to its generator (undoing the fit and any move onto the border).
         stats.fit = try_fit_vertices_in(s, points, vertices, triangles, fit_rounds, LAMBDA)?;
         stats.fit.reverted += s.scratch(|t| -> Result<u32> {
             let cut = t.try_alloc_slice::<bool>(nf, false)?;
@@ -753,8 +1048,9 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             for (f, _) in cut.iter().enumerate().filter(|(_, &c)| c) {
                 for &v in &triangles[f] {
                     let v = v as usize;
-                    if vertices[v] != before[v] {
-                        vertices[v] = before[v];
+                    let home = generators[vertex_cluster[v] as usize];
+                    if vertices[v] != home {
+                        vertices[v] = home;
                         back += 1;
                     }
                 }
