@@ -227,18 +227,20 @@ const BUBBLE_FACES: usize = 20;
 /// See [`BUBBLE_FACES`].
 const BUBBLE_RATIO: usize = 10;
 
-/// Removes from `faces[..nf]` the bubbles: closed edge-connected pieces of
-/// fewer than [`BUBBLE_FACES`] faces while another piece has at least
-/// [`BUBBLE_RATIO`] times as many (a small object of its own is as large as
-/// its neighbours and stays). Returns the faces kept (compacted to the front),
-/// the bubbles removed and the pieces left. O(F log F).
-fn drop_bubbles<'b, S: Alloc<'b>>(
-    s: &S,
-    faces: &mut [[u32; 3]],
-    nf: usize,
-) -> Result<(usize, u32, u32)> {
-    s.scratch(|t| {
-        let table = edge_table(t, &faces[..nf])?;
+/// The edge-connected pieces of a face list and which of them are bubbles
+/// (see [`drop_bubbles`]).
+struct Pieces<'t> {
+    /// Per face, its piece's root (the piece's lowest face).
+    root: &'t [u32],
+    /// Per root, whether its piece is a bubble.
+    bubble: &'t [bool],
+}
+
+impl<'t> Pieces<'t> {
+    /// The pieces of `faces`, in scratch from `t`. O(F log F).
+    fn try_new_in<'b, S: Alloc<'b>>(t: &'t S, faces: &[[u32; 3]]) -> Result<Self> {
+        let nf = faces.len();
+        let table = edge_table(t, faces)?;
         let mut pieces = UnionFind::try_new_in(t, nf)?;
         let open = t.try_alloc_slice::<bool>(nf, false)?;
         let mut i = 0;
@@ -262,10 +264,28 @@ fn drop_bubbles<'b, S: Alloc<'b>>(
             closed[r] &= !open[f];
         }
         let largest = size.iter().copied().max().unwrap_or(0) as usize;
-        let bubble = |r: usize| {
+        let bubble = t.try_alloc_slice::<bool>(nf, false)?;
+        for (r, b) in bubble.iter_mut().enumerate() {
             let n = size[r] as usize;
-            closed[r] && n < BUBBLE_FACES && n * BUBBLE_RATIO <= largest
-        };
+            *b = closed[r] && n < BUBBLE_FACES && n * BUBBLE_RATIO <= largest;
+        }
+        Ok(Pieces { root, bubble })
+    }
+}
+
+/// Removes from `faces[..nf]` the bubbles: closed edge-connected pieces of
+/// fewer than [`BUBBLE_FACES`] faces while another piece has at least
+/// [`BUBBLE_RATIO`] times as many (a small object of its own is as large as
+/// its neighbours and stays). Returns the faces kept (compacted to the front),
+/// the bubbles removed and the pieces left. O(F log F).
+fn drop_bubbles<'b, S: Alloc<'b>>(
+    s: &S,
+    faces: &mut [[u32; 3]],
+    nf: usize,
+) -> Result<(usize, u32, u32)> {
+    s.scratch(|t| {
+        let Pieces { root, bubble } = Pieces::try_new_in(t, &faces[..nf])?;
+        let bubble = |r: usize| bubble[r];
         let pieces = |drop: bool| {
             (0..nf)
                 .filter(|&r| root[r] as usize == r && bubble(r) == drop)
@@ -304,34 +324,8 @@ fn join_bubbles<'b, S: Alloc<'b>>(
     tol: f32,
 ) -> Result<(usize, u32)> {
     s.scratch(|t| {
-        let table = edge_table(t, &faces[..nf])?;
-        let mut pieces = UnionFind::try_new_in(t, nf)?;
-        let open = t.try_alloc_slice::<bool>(nf, false)?;
-        let mut i = 0;
-        while i < table.len() {
-            let k = table[i].0;
-            let run = faces_of(&table[i..], k);
-            if let [(_, f)] = run {
-                open[*f as usize] = true;
-            }
-            for w in run.windows(2) {
-                pieces.union(w[0].1, w[1].1);
-            }
-            i += run.len().max(1);
-        }
-        let root = pieces.into_roots();
-        let size = t.try_alloc_slice::<u32>(nf, 0)?;
-        let closed = t.try_alloc_slice::<bool>(nf, true)?;
-        for f in 0..nf {
-            let r = root[f] as usize;
-            size[r] += 1;
-            closed[r] &= !open[f];
-        }
-        let largest = size.iter().copied().max().unwrap_or(0) as usize;
-        let bubble = |r: usize| {
-            let n = size[r] as usize;
-            closed[r] && n < BUBBLE_FACES && n * BUBBLE_RATIO <= largest
-        };
+        let Pieces { root, bubble } = Pieces::try_new_in(t, &faces[..nf])?;
+        let bubble = |r: usize| bubble[r];
         let at = |c: u32| generators.get(c as usize).copied().unwrap_or([0.0; 3]);
         let centroid = |f: [u32; 3]| {
             let [a, b, c] = f.map(at);
