@@ -227,6 +227,34 @@ const BUBBLE_FACES: usize = 20;
 /// See [`BUBBLE_FACES`].
 const BUBBLE_RATIO: usize = 10;
 
+/// The fan of every corner (`3 f + k`: corner `k` of face `f`): corners at one
+/// generator are in one fan when their faces are linked through manifold
+/// edges at it. Returns each corner's fan root; `table` is `faces`' edge
+/// table. O(F) beyond the table.
+fn corner_fans<'t, 'b, S: Alloc<'b>>(
+    t: &'t S,
+    faces: &[[u32; 3]],
+    table: &[(u64, u32)],
+) -> Result<&'t mut [u32]> {
+    let mut fans = UnionFind::try_new_in(t, 3 * faces.len())?;
+    let corner = |f: u32, v: u32| -> u32 {
+        let k = faces[f as usize].iter().position(|&x| x == v).unwrap_or(0);
+        3 * f + k as u32
+    };
+    let mut i = 0;
+    while i < table.len() {
+        let k = table[i].0;
+        let run = faces_of(&table[i..], k);
+        if let [(_, f), (_, g)] = run {
+            for w in [(k >> 32) as u32, k as u32] {
+                fans.union(corner(*f, w), corner(*g, w));
+            }
+        }
+        i += run.len().max(1);
+    }
+    Ok(fans.into_roots())
+}
+
 /// The edge-connected pieces of a face list and which of them are bubbles
 /// (see [`drop_bubbles`]).
 struct Pieces<'t> {
@@ -419,28 +447,8 @@ fn neck_pinches<'b, S: Alloc<'b>>(
     s.scratch(|t| {
         let m = generators.len();
         let table = edge_table(t, &faces[..nf])?;
-        let mut fans = UnionFind::try_new_in(t, 3 * nf)?;
-        let mut pieces = UnionFind::try_new_in(t, nf)?;
-        let corner = |f: u32, v: u32| -> u32 {
-            let k = faces[f as usize].iter().position(|&x| x == v).unwrap_or(0);
-            3 * f + k as u32
-        };
-        let mut i = 0;
-        while i < table.len() {
-            let k = table[i].0;
-            let run = faces_of(&table[i..], k);
-            if let [(_, f), (_, g)] = run {
-                for w in [(k >> 32) as u32, k as u32] {
-                    fans.union(corner(*f, w), corner(*g, w));
-                }
-            }
-            for w in run.windows(2) {
-                pieces.union(w[0].1, w[1].1);
-            }
-            i += run.len().max(1);
-        }
-        let fan = fans.into_roots();
-        let piece = pieces.into_roots();
+        let fan = corner_fans(t, &faces[..nf], table)?;
+        let piece = Pieces::try_new_in(t, &faces[..nf])?.root;
         let size = t.try_alloc_slice::<u32>(3 * nf, 0)?;
         for &r in fan.iter() {
             size[r as usize] += 1;
@@ -566,23 +574,7 @@ fn mark_pinches<'b, S: Alloc<'b>>(
     s.scratch(|t| {
         let nf = faces.len();
         let table = edge_table(t, faces)?;
-        let mut fans = UnionFind::try_new_in(t, 3 * nf)?;
-        let corner = |f: u32, v: u32| -> u32 {
-            let k = faces[f as usize].iter().position(|&x| x == v).unwrap_or(0);
-            3 * f + k as u32
-        };
-        let mut i = 0;
-        while i < table.len() {
-            let k = table[i].0;
-            let run = faces_of(&table[i..], k);
-            if let [(_, f), (_, g)] = run {
-                for w in [(k >> 32) as u32, k as u32] {
-                    fans.union(corner(*f, w), corner(*g, w));
-                }
-            }
-            i += run.len().max(1);
-        }
-        let root = fans.into_roots();
+        let root = corner_fans(t, faces, table)?;
         let size = t.try_alloc_slice::<u32>(3 * nf, 0)?;
         for &r in root.iter() {
             size[r as usize] += 1;
