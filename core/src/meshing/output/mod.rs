@@ -1025,10 +1025,13 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
         // of a face that then crosses another or folds onto its neighbour goes
         // back to its generator (undoing the fit and any move onto the border).
         stats.fit = try_fit_vertices_in(s, points, vertices, triangles, fit_rounds, LAMBDA)?;
-        stats.fit.reverted += s.scratch(|t| -> Result<u32> {
+        // Then what repair could not resolve is counted on the final
+        // positions (again only when a vertex went back: else it is the same).
+        let (back, tangled) = s.scratch(|t| -> Result<(u32, u32)> {
             let cut = t.try_alloc_slice::<bool>(nf, false)?;
-            if mark_tangles(t, triangles, vertices, cut)? == 0 {
-                return Ok(0);
+            let found = mark_tangles(t, triangles, vertices, cut)?;
+            if found == 0 {
+                return Ok((0, 0));
             }
             let mut back = 0;
             for (f, _) in cut.iter().enumerate().filter(|(_, &c)| c) {
@@ -1041,13 +1044,14 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
                     }
                 }
             }
-            Ok(back)
+            if back == 0 {
+                return Ok((0, found));
+            }
+            cut.fill(false);
+            Ok((back, mark_tangles(t, triangles, vertices, cut)?))
         })?;
-        // What repair could not resolve, measured on the final positions.
-        stats.tangled_pairs = s.scratch(|t| {
-            let cut = t.try_alloc_slice::<bool>(nf, false)?;
-            mark_tangles(t, triangles, vertices, cut)
-        })?;
+        stats.fit.reverted += back;
+        stats.tangled_pairs = tangled;
         // How far the data is from this mesh; the farthest point of every
         // cluster beyond `max_distance` goes to `uncovered` for refinement.
         let far = s.scratch(|t| -> Result<u32> {
