@@ -1,7 +1,8 @@
 //! Hole filling: boundary loops closed by ears; loops along the border of the
 //! data kept open, their notches eared and their vertices moved onto the border.
 
-use super::{dir, edge_table, face_normal, faces_of, key, untangled};
+use super::repair::untangled;
+use super::{dir, edge_table, face_normal, faces_of, key};
 use crate::arena::Alloc;
 use crate::error::Result;
 use crate::math::{add, cross, dist2, dot, norm, sub, V3};

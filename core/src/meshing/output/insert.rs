@@ -1,7 +1,8 @@
 //! Skipped clusters: generators the selection jumped over, put back into the
 //! mesh.
 
-use super::{face_normal, untangled};
+use super::face_normal;
+use super::repair::untangled;
 use crate::arena::Alloc;
 use crate::error::Result;
 use crate::math::{closest_on_triangle, dist2, dot, V3};
