@@ -358,7 +358,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
         // Small closed pieces beside a large surface (bubbles, mostly tips of
         // thin parts) are joined to it by a tube where one fits, else dropped
         // and their clusters inserted into the surface like any other.
-        let (nf, tubes) = join_bubbles(s, faces, nf, faces.len() - 2 * m, generators, tol)?;
+        let (nf, tubes) = join_bubbles(s, faces, nf, fill_end, generators, tol)?;
         let (nf, bubbles, components) = drop_bubbles(s, faces, nf)?;
         // Clusters the selection skipped go into the mesh.
         let (nf, inserted) = insert_skipped(s, faces, nf, generators, members, tol)?;
