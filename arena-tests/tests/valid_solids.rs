@@ -105,3 +105,48 @@ fn an_error_bound_is_met_on_closed_shapes_as_an_independent_evaluation_measures_
         }
     }
 }
+
+#[test]
+fn vertices_added_where_the_mesh_is_farthest_stay_within_their_budget_and_bring_the_data_nearer() {
+    for (shape, genus) in CLOSED {
+        let pts = cloud(shape, 20_000, 1);
+        let run = |densify: f32| {
+            let params = Params {
+                clusters: 250,
+                densify,
+                ..Params::default()
+            };
+            let mut buf = vec![MaybeUninit::uninit(); arena_bytes(pts.len(), &params)];
+            let arena = Arena::new(&mut buf);
+            let r = reconstruct(&arena, &pts, None, &params, &mut Silent)
+                .unwrap_or_else(|e| panic!("{shape:?}: {e}"));
+            let e =
+                vsaqem::eval::evaluate(&f64s(&pts), &f64s(r.mesh.vertices), r.mesh.triangles, 1000);
+            assert!(
+                e.is_valid_solid(Some(genus)),
+                "{shape:?} densify {densify}: not a valid solid"
+            );
+            (
+                r.mesh.vertices.len(),
+                r.meshing.mesh.densified as usize,
+                e.point_to_mesh.stats.mean,
+            )
+        };
+        let (v0, added0, mean0) = run(0.0);
+        let (v1, added1, mean1) = run(0.1);
+        assert_eq!(added0, 0);
+        assert_eq!(
+            v1,
+            v0 + added1,
+            "{shape:?}: every added vertex is in the mesh"
+        );
+        assert!(
+            added1 * 10 <= v0 + 9,
+            "{shape:?}: {added1} added to {v0}, over the 10 % budget"
+        );
+        assert!(
+            mean1 <= mean0,
+            "{shape:?}: the mean distance rose from {mean0} to {mean1} with {added1} vertices added"
+        );
+    }
+}

@@ -31,20 +31,35 @@ pub struct MeshDistance {
 
 /// Writes to `out[i]` the distance from `points[i]` to the nearest face of the
 /// mesh (`f32::INFINITY` when the mesh has no usable face). `out` must be as
-/// long as `points`; extra entries of either are ignored.
+/// long as `points`; extra entries of either are ignored. `hints`, when given
+/// (as long as `points`), holds a face near each point (`u32::MAX`: none),
+/// where its search starts (a good one prunes most of it; the distance is the
+/// same whatever the hint), and on return its nearest face.
 pub fn try_point_distances_in<'b, A: Alloc<'b>>(
     alloc: &A,
     points: &[V3],
     vertices: &[V3],
     faces: &[[u32; 3]],
     out: &mut [f32],
+    hints: Option<&mut [u32]>,
 ) -> Result<()> {
     alloc.scratch(|s| {
         let grid = FaceGrid::try_new_in(s, vertices, faces)?;
-        for (p, d) in points.iter().zip(out.iter_mut()) {
-            *d = grid
-                .nearest(*p)
-                .map_or(f32::INFINITY, |(_, d2)| libm::sqrtf(d2));
+        match hints {
+            Some(h) if h.len() == points.len() => {
+                for ((p, d), h) in points.iter().zip(out.iter_mut()).zip(h.iter_mut()) {
+                    let near = grid.nearest_from(*p, (*h != u32::MAX).then_some(*h));
+                    *h = near.map_or(u32::MAX, |(f, _)| f);
+                    *d = near.map_or(f32::INFINITY, |(_, d2)| libm::sqrtf(d2));
+                }
+            }
+            _ => {
+                for (p, d) in points.iter().zip(out.iter_mut()) {
+                    *d = grid
+                        .nearest(*p)
+                        .map_or(f32::INFINITY, |(_, d2)| libm::sqrtf(d2));
+                }
+            }
         }
         Ok(())
     })
@@ -107,7 +122,7 @@ mod tests {
         let mut buf = vec![MaybeUninit::uninit(); 1 << 16];
         let arena = Arena::new(&mut buf);
         let mut d = vec![0.0f32; pts.len()];
-        try_point_distances_in(&arena, &pts, &v, &f, &mut d).unwrap();
+        try_point_distances_in(&arena, &pts, &v, &f, &mut d, None).unwrap();
         assert_eq!(d[37], 0.37);
         assert_eq!(d[100], 2.0);
         assert_eq!(arena.used(), 0, "the grid is scratch");
@@ -125,7 +140,7 @@ mod tests {
         let mut buf = vec![MaybeUninit::uninit(); 1 << 12];
         let arena = Arena::new(&mut buf);
         let mut d = [0.0f32; 2];
-        try_point_distances_in(&arena, &[[0.0; 3], [1.0; 3]], &[], &[], &mut d).unwrap();
+        try_point_distances_in(&arena, &[[0.0; 3], [1.0; 3]], &[], &[], &mut d, None).unwrap();
         assert_eq!(d, [f32::INFINITY; 2]);
         assert_eq!(summarise(&mut [], 1.0), MeshDistance::default());
     }

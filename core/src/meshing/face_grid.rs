@@ -31,6 +31,9 @@ pub const MAX_CELLS_PER_AXIS: u32 = 1 << 10;
 pub struct FaceGrid<'a> {
     /// Sorted `(cell key << 32) | face` entries.
     entries: &'a [u64],
+    /// Each face's bounding box (empty, lowest above highest, for a face left
+    /// out), so that a query rules most faces out without their corners.
+    boxes: &'a [(V3, V3)],
     /// Lowest corner of the grid.
     origin: V3,
     /// Cell size (> 0).
@@ -94,6 +97,7 @@ impl<'a> FaceGrid<'a> {
         }
         let mut grid = FaceGrid {
             entries: &[],
+            boxes: &[],
             origin: lo,
             h: 1.0,
             dims: [1; 3],
@@ -123,6 +127,16 @@ impl<'a> FaceGrid<'a> {
             }
             h *= 2.0;
         };
+        let boxes = alloc.try_alloc_slice::<(V3, V3)>(
+            faces.len(),
+            ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
+        )?;
+        for (b, &face) in boxes.iter_mut().zip(faces) {
+            if let Some(t) = corners(vertices, face) {
+                *b = bbox(&t);
+            }
+        }
+        grid.boxes = boxes;
         let entries = alloc.try_alloc_slice::<u64>(total, 0)?;
         let mut w = 0;
         for (f, &face) in faces.iter().enumerate() {
@@ -262,16 +276,8 @@ impl<'a> FaceGrid<'a> {
         }
         let mut best: Option<(u32, f32)> = None;
         let offer = |f: u32, best: &mut Option<(u32, f32)>| {
-            let Some(t) = self
-                .faces
-                .get(f as usize)
-                .and_then(|&t| corners(self.vertices, t))
-            else {
-                return;
-            };
             // A face whose box is no nearer than the best cannot win.
-            if let Some((_, e)) = *best {
-                let (lo, hi) = bbox(&t);
+            if let (Some((_, e)), Some((lo, hi))) = (*best, self.boxes.get(f as usize)) {
                 let gap2: f32 = (0..3)
                     .map(|k| {
                         let d = (lo[k] - p[k]).max(p[k] - hi[k]).max(0.0);
@@ -282,6 +288,13 @@ impl<'a> FaceGrid<'a> {
                     return;
                 }
             }
+            let Some(t) = self
+                .faces
+                .get(f as usize)
+                .and_then(|&t| corners(self.vertices, t))
+            else {
+                return;
+            };
             let d2 = point_triangle_dist2(p, t[0], t[1], t[2]);
             let better = match *best {
                 None => true,

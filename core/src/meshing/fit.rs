@@ -109,7 +109,10 @@ fn corners_of(vertices: &[V3], face: [u32; 3]) -> Option<[V3; 3]> {
 /// [`LAMBDA`] is the default). `triangles` index `vertices`; faces that are
 /// broken (out of range, repeated index, non-finite, no area) are left alone
 /// with their vertices. Never turns a face over or collapses it; an infinite or
-/// NaN `lambda`, no points or no faces move nothing.
+/// NaN `lambda`, no points or no faces move nothing. `hints`, when given
+/// (as long as `points`), holds a face near each point (`u32::MAX`: none),
+/// where the first round's search starts, and on return each point's nearest
+/// face in the last round (unchanged when nothing moved).
 pub fn try_fit_vertices_in<'b, A: Alloc<'b>>(
     scratch: &A,
     points: &[V3],
@@ -117,6 +120,7 @@ pub fn try_fit_vertices_in<'b, A: Alloc<'b>>(
     triangles: &[[u32; 3]],
     rounds: u32,
     lambda: f32,
+    hints: Option<&mut [u32]>,
 ) -> Result<FitStats> {
     let mut stats = FitStats::default();
     let (nv, nf) = (vertices.len(), triangles.len());
@@ -175,7 +179,10 @@ pub fn try_fit_vertices_in<'b, A: Alloc<'b>>(
         let off = s.try_alloc_slice::<[f64; 3]>(nf, [0.0; 3])?;
         // Each point's nearest face in the round before: where its search
         // starts in the next (the faces move a little between rounds).
-        let hints = s.try_alloc_slice::<u32>(points.len(), u32::MAX)?;
+        let hints = match hints {
+            Some(h) if h.len() == points.len() => h,
+            _ => s.try_alloc_slice::<u32>(points.len(), u32::MAX)?,
+        };
         for _ in 0..rounds {
             diag.fill(0.0);
             rhs.fill([0.0; 3]);
@@ -407,7 +414,7 @@ mod tests {
     fn fit(points: &[V3], v: &mut [V3], f: &[[u32; 3]], rounds: u32, lambda: f32) -> FitStats {
         let mut buf = vec![MaybeUninit::uninit(); 1 << 20];
         let arena = Arena::new(&mut buf);
-        let stats = try_fit_vertices_in(&arena, points, v, f, rounds, lambda).unwrap();
+        let stats = try_fit_vertices_in(&arena, points, v, f, rounds, lambda, None).unwrap();
         assert_eq!(arena.used(), 0, "fitting leaves nothing in the arena");
         stats
     }

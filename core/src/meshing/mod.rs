@@ -104,20 +104,8 @@ pub(crate) fn try_mesh_round_in<'a>(
         })?;
         tick(progress, Stage::Output, 0, 1)?;
         let (mesh, mesh_stats) = output::try_mesh_in(
-            arena,
-            s,
-            points,
-            &cand,
-            &members,
-            selected,
-            gens,
-            p.open,
-            p.moved,
-            params.max_hole,
-            params.fit_rounds,
-            diag,
-            output,
-            uncovered,
+            arena, s, points, nb, &cand, &members, selected, gens, p.open, p.moved, params, diag,
+            output, uncovered,
         )?;
         tick(progress, Stage::Output, 1, 1)?;
         Ok((

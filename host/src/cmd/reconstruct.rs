@@ -45,6 +45,11 @@ pub struct MeshArgs {
     /// squares (boundary vertices stay, no face turns over; 0: off).
     #[arg(long, value_name = "N", default_value_t = Params::default().fit_rounds)]
     pub fit_rounds: u32,
+    /// Vertices added where the mesh is farthest from the data, at most this
+    /// fraction of its vertices: each at the farthest point of a cluster beyond
+    /// the 99th percentile of the points' distances, farthest first (0: off).
+    #[arg(long, value_name = "F", default_value_t = Params::default().densify)]
+    pub densify: f32,
     /// Refinement rounds where parts of the data are left out of the mesh.
     #[arg(long, default_value_t = Params::default().refine_rounds)]
     pub refine_rounds: u32,
@@ -99,6 +104,7 @@ impl Cmd {
             border_angle: self.mesh.border_angle,
             refine_rounds: self.mesh.refine_rounds,
             fit_rounds: self.mesh.fit_rounds,
+            densify: self.mesh.densify,
             max_error: self.mesh.max_error,
             mesh_bytes_per_cluster: self.mesh.mesh_bytes_per_cluster,
             ..self.clean.apply(self.cluster.params())
@@ -216,15 +222,21 @@ impl ReconstructReport {
     }
 
     fn fit_text(&self) -> String {
-        let fit = &self.meshing.mesh.fit;
+        let mesh = &self.meshing.mesh;
+        let densify = format!(
+            "densify    {} vertices added where the mesh was farthest from the data\n",
+            mesh.densified
+        );
+        let fit = &mesh.fit;
         if fit.rounds == 0 {
-            return "fit        none (--fit-rounds 0, or no faces)\n".to_string();
+            return densify + "fit        none (--fit-rounds 0, or no faces)\n";
         }
-        format!(
-            "fit        {} vertices moved onto the data in {} rounds, {} moves taken back \
-             (a face would turn over or collapse)\n",
-            fit.moved, fit.rounds, fit.reverted
-        )
+        densify
+            + &format!(
+                "fit        {} vertices moved onto the data in {} rounds, {} moves taken back \
+                 (a face would turn over or collapse)\n",
+                fit.moved, fit.rounds, fit.reverted
+            )
     }
 
     fn distance_text(&self) -> String {
@@ -365,6 +377,7 @@ impl ReconstructReport {
             .num("holes_left", mesh.holes_left as f64)
             .num("orientation_repairs", mesh.repairs as f64)
             .num("inserted_clusters", mesh.inserted_clusters as f64)
+            .num("densified", mesh.densified as f64)
             .num("uncovered_clusters", mesh.uncovered_clusters as f64)
             .num("uncovered_points", mesh.uncovered_points as f64)
             .num("fit_rounds", mesh.fit.rounds as f64)

@@ -27,6 +27,7 @@
 //! Memory: the mesh (12 bytes per vertex and per face) plus O(faces + candidate
 //! edges) scratch. Cost: linear in faces and edges.
 
+pub mod densify;
 mod holes;
 mod insert;
 mod orient;
@@ -35,12 +36,15 @@ mod repair;
 mod tests;
 
 use crate::arena::{Alloc, Arena};
+use crate::clustering::knn::Neighbours;
 use crate::error::Result;
 use crate::math::{add, cross, dot, norm, sub, V3};
 use crate::meshing::candidates::{Candidates, Members};
 use crate::meshing::distance::{summarise, try_point_distances_in, MeshDistance};
 use crate::meshing::fit::{try_fit_vertices_in, FitStats, LAMBDA};
+use crate::params::Params;
 
+use densify::{densify, Growing};
 use holes::{fill_holes, Filled};
 use insert::insert_skipped;
 use orient::orient;
@@ -93,6 +97,9 @@ pub struct MeshStats {
     /// Clusters the selection skipped (no selected face used them) whose
     /// generators were then inserted into the faces nearest to them.
     pub inserted_clusters: u32,
+    /// Vertices added where the mesh was farthest from the data
+    /// ([`densify`]).
+    pub densified: u32,
     /// Clusters (with points) that no face uses even so: uncovered parts of
     /// the data (no face could be split to reach them without folding).
     pub uncovered_clusters: u32,
@@ -205,18 +212,19 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
     out: &'o Arena<'b>,
     work: &W,
     points: &[V3],
+    nb: &Neighbours,
     cand: &Candidates,
     members: &Members,
     selected: &[bool],
     generators: &[V3],
     open: &[bool],
     moved: &[V3],
-    max_hole: u32,
-    fit_rounds: u32,
+    params: &Params,
     diag: f32,
     output: Output,
     uncovered: &mut [u32],
 ) -> Result<(Option<Mesh<'o>>, MeshStats)> {
+    let (max_hole, fit_rounds) = (params.max_hole, params.fit_rounds);
     let m = generators.len();
     let ne = cand.edges.len();
     work.scratch(|s| -> Result<(Option<Mesh<'o>>, MeshStats)> {
@@ -430,6 +438,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             holes_left: filled.left,
             open_loops: filled.open,
             inserted_clusters: inserted.clusters,
+            densified: 0,
             uncovered_clusters: uncovered_clusters as u32,
             uncovered_points,
             fit: FitStats::default(),
@@ -449,10 +458,17 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             Output::Always => f32::INFINITY,
         };
         // The mesh is made in scratch and measured there; only a mesh that is
-        // wanted is copied out.
-        let vertices = s.try_alloc_slice::<V3>(nv as usize, [0.0; 3])?;
-        let vertex_cluster = s.try_alloc_slice::<u32>(nv as usize, 0)?;
-        let triangles = s.try_alloc_slice::<[u32; 3]>(nf, [0; 3])?;
+        // wanted is copied out. Room for the vertices densifying may add.
+        let extra = if params.densify > 0.0 {
+            libm::ceil(params.densify as f64 * nv as f64) as usize
+        } else {
+            0
+        };
+        let cap_v = nv as usize + extra;
+        let vertices = s.try_alloc_slice::<V3>(cap_v, [0.0; 3])?;
+        let home = s.try_alloc_slice::<V3>(cap_v, [0.0; 3])?;
+        let vertex_cluster = s.try_alloc_slice::<u32>(cap_v, 0)?;
+        let triangles = s.try_alloc_slice::<[u32; 3]>(nf + 2 * extra, [0; 3])?;
         for f in 0..nf {
             for k in 0..3 {
                 let v = vertex_of_root[fan[3 * f + k] as usize];
@@ -464,6 +480,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
                     Some(&p) if to_border => p,
                     _ => generators[c],
                 };
+                home[v as usize] = generators[c];
                 vertex_cluster[v as usize] = cl;
                 triangles[f][k] = v;
             }
@@ -508,42 +525,80 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
                 .fold(0.0f32, f32::max);
             vertices[v] = [0, 1, 2].map(|i| g[i] + reach * d[i]);
         }
+        let nv = nv as usize;
+        let mut mesh = Growing {
+            vertices,
+            home,
+            vertex_cluster,
+            triangles,
+            nv,
+            nf,
+        };
+        // How far the data is from this mesh. Where it is farthest, vertices
+        // are added.
+        let d = s.try_alloc_slice::<f32>(points.len(), 0.0)?;
+        // Each point's nearest face, where the next search for it starts.
+        let hints = s.try_alloc_slice::<u32>(points.len(), u32::MAX)?;
+        if extra > 0 {
+            // Vertices moved onto the data's border were not checked for
+            // crossings: where they cross, they go back to their generators;
+            // then where every vertex is becomes its home, the untangled
+            // layout that added vertices are checked against.
+            let (back, _) = mesh.untangle(s)?;
+            stats.fit.reverted += back;
+            mesh.home[..nv].copy_from_slice(&mesh.vertices[..nv]);
+            try_point_distances_in(
+                s,
+                points,
+                &mesh.vertices[..nv],
+                &mesh.triangles[..nf],
+                d,
+                Some(&mut *hints),
+            )?;
+            let p99 = s.scratch(|t| -> Result<f32> {
+                Ok(summarise(t.try_alloc_copy::<f32>(d)?, 1.0).p99)
+            })?;
+            let done = densify(s, points, members, nb, &mut mesh, d, extra, p99, tol)?;
+            stats.densified = done.added;
+        }
         // The vertices fitted to the data, moving no boundary vertex. A vertex
         // of a face that then crosses another or folds onto its neighbour goes
-        // back to its generator (undoing the fit and any move onto the border).
-        stats.fit = try_fit_vertices_in(s, points, vertices, triangles, fit_rounds, LAMBDA)?;
+        // back home (its generator, undoing the fit and any move onto the
+        // border, or the point it was added at).
+        let (nv, nf) = (mesh.nv, mesh.nf);
+        stats.fit = try_fit_vertices_in(
+            s,
+            points,
+            &mut mesh.vertices[..nv],
+            &mesh.triangles[..nf],
+            fit_rounds,
+            LAMBDA,
+            Some(&mut *hints),
+        )?;
         // Then what repair could not resolve is counted on the final
         // positions (again only when a vertex went back: else it is the same).
-        let (back, tangled) = s.scratch(|t| -> Result<(u32, u32)> {
-            let cut = t.try_alloc_slice::<bool>(nf, false)?;
-            let found = mark_tangles(t, triangles, vertices, cut)?;
-            if found == 0 {
-                return Ok((0, 0));
-            }
-            let mut back = 0;
-            for (f, _) in cut.iter().enumerate().filter(|(_, &c)| c) {
-                for &v in &triangles[f] {
-                    let v = v as usize;
-                    let home = generators[vertex_cluster[v] as usize];
-                    if vertices[v] != home {
-                        vertices[v] = home;
-                        back += 1;
-                    }
-                }
-            }
-            if back == 0 {
-                return Ok((0, found));
-            }
-            cut.fill(false);
-            Ok((back, mark_tangles(t, triangles, vertices, cut)?))
-        })?;
+        let (back, tangled) = mesh.untangle(s)?;
         stats.fit.reverted += back;
         stats.tangled_pairs = tangled;
-        // How far the data is from this mesh; the farthest point of every
+        // How far the data is from the final mesh; the farthest point of every
         // cluster beyond `max_distance` goes to `uncovered` for refinement.
-        let far = s.scratch(|t| -> Result<u32> {
-            let d = t.try_alloc_slice::<f32>(points.len(), 0.0)?;
-            try_point_distances_in(t, points, vertices, triangles, d)?;
+        try_point_distances_in(
+            s,
+            points,
+            &mesh.vertices[..nv],
+            &mesh.triangles[..nf],
+            d,
+            Some(hints),
+        )?;
+        let (nv, nf) = (mesh.nv, mesh.nf);
+        let (vertices, triangles, vertex_cluster) = (
+            &mesh.vertices[..nv],
+            &mesh.triangles[..nf],
+            &mesh.vertex_cluster[..nv],
+        );
+        stats.vertices = nv as u32;
+        stats.faces = nf as u32;
+        let far = {
             let mut far = 0usize;
             for j in 0..members.len() {
                 let worst = members
@@ -564,8 +619,8 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
                 }
             }
             stats.distance = summarise(d, diag);
-            Ok(far as u32)
-        })?;
+            far as u32
+        };
         stats.far_clusters = far;
         if far > 0 && max_distance.is_finite() {
             return Ok((None, stats));

@@ -465,39 +465,56 @@ pub(super) fn untangled(
         let hi: [f64; 3] = core::array::from_fn(|k| t[0][k].max(t[1][k]).max(t[2][k]));
         (lo, hi)
     };
+    // Only faces whose box meets the new faces' box can meet one of them: a
+    // cheap first filter (in f32, exact like the f64 boxes below).
+    let pos = |c: u32| generators.get(c as usize).copied().unwrap_or([0.0; 3]);
+    let (mut nlo, mut nhi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+    for p in new.iter().flatten().map(|&c| pos(c)) {
+        for k in 0..3 {
+            nlo[k] = nlo[k].min(p[k]);
+            nhi[k] = nhi[k].max(p[k]);
+        }
+    }
+    let near = |f: &[u32; 3]| {
+        let t = f.map(pos);
+        (0..3).all(|k| {
+            let lo = t[0][k].min(t[1][k]).min(t[2][k]);
+            let hi = t[0][k].max(t[1][k]).max(t[2][k]);
+            !(lo > nhi[k] || nlo[k] > hi)
+        })
+    };
+    // Does face `b` cross or fold onto new face `i`?
+    let clash = |i: usize, b: [u32; 3]| {
+        let a = new[i];
+        let (pa, pb) = (corners(a), corners(b));
+        let ((lo, hi), (blo, bhi)) = (bbox(&pa), bbox(&pb));
+        if (0..3).any(|k| lo[k] > bhi[k] || blo[k] > hi[k]) {
+            return false;
+        }
+        if faces_intersect(a, &pa, b, &pb) {
+            return true;
+        }
+        // A shared edge: the two must not fold onto each other.
+        (0..3).any(|k| {
+            let (u, v) = (a[k], a[(k + 1) % 3]);
+            if !(b.contains(&u) && b.contains(&v)) {
+                return false;
+            }
+            let third = |f: [u32; 3]| f.into_iter().find(|&c| c != u && c != v);
+            matches!((third(a), third(b)), (Some(c1), Some(c2)) if folded(at(u), at(v), at(c1), at(c2)))
+        })
+    };
     let others = faces
         .iter()
         .enumerate()
-        .filter(|(h, _)| !replaced.contains(h))
-        .map(|(_, &f)| f);
-    for (i, &a) in new.iter().enumerate() {
-        let pa = corners(a);
-        let (lo, hi) = bbox(&pa);
-        let earlier = new[..i].iter().copied();
-        for b in others.clone().chain(earlier) {
-            let pb = corners(b);
-            let (blo, bhi) = bbox(&pb);
-            if (0..3).any(|k| lo[k] > bhi[k] || blo[k] > hi[k]) {
-                continue;
-            }
-            if faces_intersect(a, &pa, b, &pb) {
-                return false;
-            }
-            // A shared edge: the two must not fold onto each other.
-            for k in 0..3 {
-                let (u, v) = (a[k], a[(k + 1) % 3]);
-                if b.contains(&u) && b.contains(&v) {
-                    let third = |f: [u32; 3]| f.into_iter().find(|&c| c != u && c != v);
-                    if let (Some(c1), Some(c2)) = (third(a), third(b)) {
-                        if folded(at(u), at(v), at(c1), at(c2)) {
-                            return false;
-                        }
-                    }
-                }
-            }
+        .filter(|&(h, f)| !replaced.contains(&h) && near(f));
+    for (_, &b) in others {
+        if (0..new.len()).any(|i| clash(i, b)) {
+            return false;
         }
     }
-    true
+    // The new faces among themselves.
+    !(1..new.len()).any(|i| new[..i].iter().any(|&b| clash(i, b)))
 }
 
 /// Moves the faces of `faces[..nf]` not marked in `marked` to the front, in

@@ -1,0 +1,261 @@
+//! Vertices where the mesh is farthest from the data: error-driven refinement
+//! without a new selection.
+//!
+//! After fitting, a few points usually lie much farther from the mesh than the
+//! rest (a tip the faces cut across, a crease the vertices straddle, a border
+//! the faces stop short of). Each pass takes, cluster by cluster, the point
+//! farthest from the mesh when it is beyond the threshold, farthest first,
+//! and makes it a vertex of the face (or edge) nearest to it, by the same
+//! checked split that puts skipped clusters into the mesh
+//! ([`super::insert::split_at`]: no degenerate, turned-over, crossing or
+//! folded face). Splits in one pass touch disjoint faces. Then the vertices
+//! are fitted again (one round), a vertex of a face that then crosses another
+//! goes back to where it was made, and the distances are measured again for
+//! the next pass.
+//!
+//! Memory: scratch only, O(clusters + vertices) for the candidates and marks,
+//! plus a fitting round and a distance pass (see their modules). Cost per pass:
+//! O(faces) per split, plus a fitting round and a distance pass.
+
+use super::insert::split_at;
+use super::repair::mark_tangles;
+use crate::arena::Alloc;
+use crate::clustering::knn::Neighbours;
+use crate::error::Result;
+use crate::math::{closest_on_triangle, V3};
+use crate::meshing::candidates::Members;
+use crate::meshing::face_grid::FaceGrid;
+
+/// Passes of putting the vertices of tangled faces back home at most.
+pub const UNTANGLE_PASSES: u32 = 8;
+/// Passes of adding vertices at most.
+pub const DENSIFY_PASSES: u32 = 8;
+
+/// A mesh being refined: positions, faces and where each vertex came from,
+/// in buffers with room to grow.
+pub(super) struct Growing<'s> {
+    /// Positions; the first `nv` are the mesh's.
+    pub vertices: &'s mut [V3],
+    /// Where each vertex goes back to when a face at it crosses another: its
+    /// generator, or the point it was made at.
+    pub home: &'s mut [V3],
+    /// The cluster of each vertex.
+    pub vertex_cluster: &'s mut [u32],
+    /// Faces; the first `nf` are the mesh's.
+    pub triangles: &'s mut [[u32; 3]],
+    /// Vertices in use.
+    pub nv: usize,
+    /// Faces in use.
+    pub nf: usize,
+}
+
+impl Growing<'_> {
+    /// Puts every vertex of a face that crosses another or folds onto its
+    /// neighbour back home, again while that changes something (a face put
+    /// back can meet one that moved), [`UNTANGLE_PASSES`] times at most.
+    /// Returns the vertices moved and the face pairs still tangled after that.
+    pub fn untangle<'b, S: Alloc<'b>>(&mut self, s: &S) -> Result<(u32, u32)> {
+        let (nv, nf) = (self.nv, self.nf);
+        let (vertices, triangles) = (&mut self.vertices[..nv], &self.triangles[..nf]);
+        let home = &self.home[..nv];
+        s.scratch(|t| -> Result<(u32, u32)> {
+            let cut = t.try_alloc_slice::<bool>(nf, false)?;
+            let mut found = mark_tangles(t, triangles, vertices, cut)?;
+            let mut back = 0;
+            for _ in 0..UNTANGLE_PASSES {
+                if found == 0 {
+                    break;
+                }
+                let mut moved = 0;
+                for (f, _) in cut.iter().enumerate().filter(|(_, &c)| c) {
+                    for &v in &triangles[f] {
+                        let v = v as usize;
+                        if vertices[v] != home[v] {
+                            vertices[v] = home[v];
+                            moved += 1;
+                        }
+                    }
+                }
+                if moved == 0 {
+                    break;
+                }
+                back += moved;
+                cut.fill(false);
+                found = mark_tangles(t, triangles, vertices, cut)?;
+            }
+            Ok((back, found))
+        })
+    }
+}
+
+/// What densifying did.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct Densified {
+    /// Vertices added.
+    pub added: u32,
+    /// Passes that added some.
+    pub passes: u32,
+}
+
+/// Adds at most `budget` vertices to `mesh` at the points farther than
+/// `threshold` from it (see the module docs), in [`DENSIFY_PASSES`] passes at
+/// most. `distances` holds each point's distance to the mesh on entry; after
+/// each pass those of the points in the clusters of the vertices it touched
+/// are measured again (the others change little), so on return they are
+/// stale: measure again after moving the vertices. The buffers of `mesh` must
+/// have room for `budget` more vertices and `2 × budget` more faces.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn densify<'b, S: Alloc<'b>>(
+    s: &S,
+    points: &[V3],
+    members: &Members,
+    nb: &Neighbours,
+    mesh: &mut Growing,
+    distances: &mut [f32],
+    budget: usize,
+    threshold: f32,
+    tol: f32,
+) -> Result<Densified> {
+    let mut out = Densified::default();
+    let budget = budget
+        .min(mesh.vertices.len().saturating_sub(mesh.nv))
+        .min(mesh.home.len().saturating_sub(mesh.nv))
+        .min(mesh.vertex_cluster.len().saturating_sub(mesh.nv))
+        .min(mesh.triangles.len().saturating_sub(mesh.nf) / 2);
+    if budget == 0 || threshold.is_nan() || threshold < 0.0 || members.is_empty() {
+        return Ok(out);
+    }
+    s.scratch(|s| -> Result<()> {
+        let far = s.try_alloc_slice::<(f32, u32, u32)>(members.len(), (0.0, 0, 0))?;
+        let at = s.try_alloc_slice::<(u32, [f32; 3])>(members.len(), (u32::MAX, [0.0; 3]))?;
+        let touched = s.try_alloc_slice::<bool>(mesh.nv + budget, false)?;
+        let again = s.try_alloc_slice::<bool>(members.len(), false)?;
+        for _ in 0..DENSIFY_PASSES {
+            let left = budget - out.added as usize;
+            if left == 0 {
+                break;
+            }
+            // One grid per pass: the points of the clusters whose vertices the
+            // pass before touched are measured again, then every candidate's
+            // nearest face and its coordinates there are found (before any
+            // split: splits in a pass touch disjoint faces).
+            let (nv, nf) = (mesh.nv, mesh.nf);
+            let count = s.scratch(|g| -> Result<usize> {
+                let grid = FaceGrid::try_new_in(g, &mesh.vertices[..nv], &mesh.triangles[..nf])?;
+                for (j, _) in again.iter().enumerate().filter(|(_, &a)| a) {
+                    for &i in members.of(j) {
+                        if let (Some(&p), Some(d)) =
+                            (points.get(i as usize), distances.get_mut(i as usize))
+                        {
+                            *d = grid
+                                .nearest(p)
+                                .map_or(f32::INFINITY, |(_, d2)| libm::sqrtf(d2));
+                        }
+                    }
+                }
+                // Each cluster's farthest point beyond the threshold with at
+                // least half its neighbours at least half as far (a part of
+                // the surface the mesh misses, not a stray point): (distance,
+                // point, cluster), farthest first (lower point index among
+                // equals).
+                let supported = |i: u32, e: f32| {
+                    let row = nb.knn.get(i as usize * nb.k..(i as usize + 1) * nb.k);
+                    let far = row.map_or(0, |row| {
+                        row.iter()
+                            .filter(|&&q| distances.get(q as usize).is_some_and(|&x| x > e / 2.0))
+                            .count()
+                    });
+                    2 * far >= nb.k
+                };
+                let mut count = 0;
+                for j in 0..members.len() {
+                    let mut best: Option<(f32, u32)> = None;
+                    for &i in members.of(j) {
+                        let Some(&e) = distances.get(i as usize) else {
+                            continue;
+                        };
+                        let better = match best {
+                            None => true,
+                            Some((x, b)) => e > x || (e == x && i < b),
+                        };
+                        if e > threshold && e.is_finite() && better && supported(i, e) {
+                            best = Some((e, i));
+                        }
+                    }
+                    if let Some((e, i)) = best {
+                        if (i as usize) < points.len() {
+                            far[count] = (e, i, j as u32);
+                            count += 1;
+                        }
+                    }
+                }
+                let far = &mut far[..count];
+                far.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+                for (&(_, i, _), a) in far.iter().zip(at.iter_mut()) {
+                    let p = points[i as usize];
+                    *a = (u32::MAX, [0.0; 3]);
+                    if let Some((f, _)) = grid.nearest(p) {
+                        let c = mesh.triangles[f as usize].map(|v| mesh.vertices[v as usize]);
+                        *a = (f, closest_on_triangle(p, c[0], c[1], c[2]).1);
+                    }
+                }
+                Ok(count)
+            })?;
+            let far = &far[..count];
+            touched.fill(false);
+            let mut added = 0;
+            for (&(_, i, j), &(f, bary)) in far.iter().zip(at.iter()) {
+                if added == left {
+                    break;
+                }
+                let f = f as usize;
+                if f >= mesh.nf || mesh.triangles[f].iter().any(|&v| touched[v as usize]) {
+                    continue;
+                }
+                let v = mesh.nv;
+                let p = points[i as usize];
+                // Checked where every vertex goes back to when untangling, so
+                // that putting them all back always untangles.
+                mesh.home[v] = p;
+                let before = mesh.nf;
+                let old = mesh.triangles[f];
+                let Some(n) = split_at(
+                    mesh.triangles,
+                    mesh.nf,
+                    f,
+                    bary,
+                    v as u32,
+                    &mesh.home[..v + 1],
+                    tol,
+                ) else {
+                    continue;
+                };
+                mesh.vertices[v] = p;
+                mesh.vertex_cluster[v] = j;
+                for &u in old.iter().chain(mesh.triangles[before..n].iter().flatten()) {
+                    touched[u as usize] = true;
+                }
+                mesh.nv += 1;
+                mesh.nf = n;
+                added += 1;
+            }
+            if added == 0 {
+                break;
+            }
+            out.added += added as u32;
+            out.passes += 1;
+            // The points of every touched vertex's cluster are measured again
+            // at the next pass's start.
+            again.fill(false);
+            for v in 0..mesh.nv {
+                if touched[v] {
+                    if let Some(a) = again.get_mut(mesh.vertex_cluster[v] as usize) {
+                        *a = true;
+                    }
+                }
+            }
+        }
+        Ok(())
+    })?;
+    Ok(out)
+}
