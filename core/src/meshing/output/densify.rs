@@ -1,21 +1,22 @@
 //! Vertices where the mesh is farthest from the data: error-driven refinement
 //! without a new selection.
 //!
-//! After fitting, a few points usually lie much farther from the mesh than the
-//! rest (a tip the faces cut across, a crease the vertices straddle, a border
-//! the faces stop short of). Each pass takes, cluster by cluster, the point
-//! farthest from the mesh when it is beyond the threshold, farthest first,
-//! and makes it a vertex of the face (or edge) nearest to it, by the same
-//! checked split that puts skipped clusters into the mesh
-//! ([`super::insert::split_at`]: no degenerate, turned-over, crossing or
-//! folded face). Splits in one pass touch disjoint faces. Then the vertices
-//! are fitted again (one round), a vertex of a face that then crosses another
-//! goes back to where it was made, and the distances are measured again for
-//! the next pass.
+//! A few points usually lie much farther from the mesh than the rest (a tip
+//! the faces cut across, a crease the vertices straddle, a border the faces
+//! stop short of). Each pass takes, cluster by cluster, the farthest point
+//! beyond the threshold (the 99th percentile of the distances) that at least
+//! half its neighbours back (each at least half as far: a part of the surface
+//! the mesh misses, not a stray point), farthest first, and makes it a vertex
+//! of the face (or edge) nearest to it, by the same checked split that puts
+//! skipped clusters into the mesh (no degenerate, turned-over, crossing or
+//! folded face, judged where every vertex goes back to when untangling).
+//! Splits in one pass touch disjoint faces. The next pass measures the points
+//! of the touched clusters again. The caller then fits the vertices and puts
+//! those of any tangled face back home (`Growing::untangle`).
 //!
 //! Memory: scratch only, O(clusters + vertices) for the candidates and marks,
-//! plus a fitting round and a distance pass (see their modules). Cost per pass:
-//! O(faces) per split, plus a fitting round and a distance pass.
+//! plus a face grid per pass. Cost per pass: O(faces) per split, plus a grid
+//! and the queries of the touched clusters' points.
 
 use super::insert::split_at;
 use super::repair::mark_tangles;
