@@ -4,7 +4,7 @@
 //! ("is every part of my data in the mesh, and how far is the farthest point?"),
 //! and what error-driven refinement acts on.
 //!
-//! Memory: the grid (at most 64 bytes per face) and the distances the caller
+//! Memory: the grid (at most 88 bytes per face) and the distances the caller
 //! passes (4 bytes per point). Cost: O(n × faces near a point × log E) for n
 //! points and E grid entries; O(n) more for the percentile (a selection, not a
 //! sort).
@@ -45,21 +45,16 @@ pub fn try_point_distances_in<'b, A: Alloc<'b>>(
 ) -> Result<()> {
     alloc.scratch(|s| {
         let grid = FaceGrid::try_new_in(s, vertices, faces)?;
-        match hints {
-            Some(h) if h.len() == points.len() => {
-                for ((p, d), h) in points.iter().zip(out.iter_mut()).zip(h.iter_mut()) {
-                    let near = grid.nearest_from(*p, (*h != u32::MAX).then_some(*h));
-                    *h = near.map_or(u32::MAX, |(f, _)| f);
-                    *d = near.map_or(f32::INFINITY, |(_, d2)| libm::sqrtf(d2));
-                }
+        // Without hints (or the wrong number), every search starts afresh.
+        let mut hints = hints.filter(|h| h.len() == points.len());
+        for (i, (p, d)) in points.iter().zip(out.iter_mut()).enumerate() {
+            let h = hints.as_deref_mut().and_then(|h| h.get_mut(i));
+            let hint = h.as_deref().copied().filter(|&f| f != u32::MAX);
+            let near = grid.nearest_from(*p, hint);
+            if let Some(h) = h {
+                *h = near.map_or(u32::MAX, |(f, _)| f);
             }
-            _ => {
-                for (p, d) in points.iter().zip(out.iter_mut()) {
-                    *d = grid
-                        .nearest(*p)
-                        .map_or(f32::INFINITY, |(_, d2)| libm::sqrtf(d2));
-                }
-            }
+            *d = near.map_or(f32::INFINITY, |(_, d2)| libm::sqrtf(d2));
         }
         Ok(())
     })

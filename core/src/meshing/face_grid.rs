@@ -4,11 +4,12 @@
 //!
 //! Every face is entered in each cell its bounding box overlaps. The grid is one
 //! sorted array of `(cell << 32) | face` keys, so a cell's faces are one run,
-//! found by binary search: 8 bytes per entry, nothing else. The cell size starts
-//! at the mean bounding-box extent of the faces and doubles until the entries
-//! number at most [`ENTRIES_PER_FACE`] per face and the grid at most
-//! [`MAX_CELLS_PER_AXIS`] cells along an axis, so memory is at most `8 ×
-//! ENTRIES_PER_FACE` bytes per face whatever the faces' shapes.
+//! found by binary search: 8 bytes per entry, beside each face's bounding box
+//! (24 bytes), so that a query rules most faces out without reading their
+//! corners. The cell size starts at the mean bounding-box extent of the faces
+//! and doubles until the entries number at most [`ENTRIES_PER_FACE`] per face
+//! and the grid at most [`MAX_CELLS_PER_AXIS`] cells along an axis, so memory is
+//! at most `8 × ENTRIES_PER_FACE + 24` bytes per face whatever the faces' shapes.
 //!
 //! Cost: building, O(E log E) for E entries; a nearest-face query, O(faces in
 //! the rings searched × log E); it falls back to a scan of all faces when a ring

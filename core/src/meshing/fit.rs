@@ -38,7 +38,7 @@
 //! (anchors, positions at the round's start, reach, a fixed flag, the
 //! accumulated normal equations, the start of its face list) and 36 per face
 //! (the matrix's off-diagonal terms, the vertex-to-face lists), plus the face
-//! grid of a round (at most 64 bytes per face; the edge keys that find the
+//! grid of a round (at most 88 bytes per face; the edge keys that find the
 //! boundary, 24 per face, come and go before). Cost per round: O(n × faces
 //! near a point × log E) for the projections (as for the distances, which
 //! take as long) plus O(SWEEPS × F) for the solve.
