@@ -37,6 +37,7 @@ mod tests;
 
 use crate::arena::{Alloc, Arena};
 use crate::clustering::knn::Neighbours;
+use crate::clustering::quadric::Planes;
 use crate::error::Result;
 use crate::math::{add, cross, dot, norm, sub, V3};
 use crate::meshing::candidates::{Candidates, Members};
@@ -213,6 +214,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
     work: &W,
     points: &[V3],
     nb: &Neighbours,
+    planes: &Planes,
     cand: &Candidates,
     members: &Members,
     selected: &[bool],
@@ -558,7 +560,9 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             let p99 = s.scratch(|t| -> Result<f32> {
                 Ok(summarise(t.try_alloc_copy::<f32>(d)?, 1.0).p99)
             })?;
-            let done = densify(s, points, members, nb, &mut mesh, d, extra, p99, tol)?;
+            let done = densify(
+                s, points, members, nb, planes, &mut mesh, d, extra, p99, tol,
+            )?;
             stats.densified = done.added;
         }
         // The vertices fitted to the data, moving no boundary vertex. A vertex
