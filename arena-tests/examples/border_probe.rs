@@ -33,7 +33,13 @@ fn main() {
             };
             let mut buf = vec![MaybeUninit::<u8>::uninit(); arena_bytes(pts.len(), &params)];
             let arena = Arena::new(&mut buf);
-            let r = reconstruct(&arena, &pts, None, &params, &mut Silent).unwrap();
+            let r = match reconstruct(&arena, &pts, None, &params, &mut Silent) {
+                Ok(r) => r,
+                Err(e) => {
+                    line += &format!("  {deg}°: {e}");
+                    continue;
+                }
+            };
             let t = topology(r.mesh.vertices, r.mesh.triangles);
             line += &format!(
                 "  {deg}°: {} border clusters, {} open loops, {} boundary edges, clean {}",

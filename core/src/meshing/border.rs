@@ -6,7 +6,11 @@
 //! there is nothing on one side (gaps near 180°). It must also be at an end of the
 //! candidate graph: one of its candidate edges has fewer than two candidate
 //! facets. The gap alone also fires at thin parts and sharp edges of closed
-//! surfaces; the second test keeps those inside.
+//! surfaces; the second test keeps those inside. Last, the data must end there:
+//! the cluster's member farthest into the gap has fewer than [`AHEAD`] of its k
+//! nearest points ahead of it. Irregular samples (the vertices of CAD meshes,
+//! with long thin triangles) leave gaps and frayed edges in the candidate graph
+//! of closed surfaces; the points there go on.
 //!
 //! Clusters, not points: the k nearest neighbours of a point on a randomly
 //! sampled surface bunch to one side often enough that a per-point gap test flags
@@ -17,6 +21,7 @@
 //! result. Deterministic.
 
 use crate::arena::Alloc;
+use crate::clustering::knn::Neighbours;
 use crate::clustering::quadric::Planes;
 use crate::error::Result;
 use crate::math::{cross, dot, norm, perpendicular, sub, V3};
@@ -76,6 +81,33 @@ pub fn largest_gap(
     (gap, dir)
 }
 
+/// Neighbours of point `end` that lie ahead of it in direction `dir` (within
+/// 60° of it in the tangent plane of unit normal `n`) at least this many: the
+/// data goes on past `end`, so its cluster is not on the border. Inside a
+/// surface about a third of the k neighbours lie in any such wedge.
+const AHEAD: usize = 2;
+
+/// Whether the data goes on past point `end` in direction `dir` (see [`AHEAD`]).
+fn data_beyond(points: &[V3], nb: &Neighbours, end: u32, n: V3, dir: V3) -> bool {
+    let e = end as usize;
+    let (Some(&x), Some(row)) = (points.get(e), nb.knn.get(e * nb.k..(e + 1) * nb.k)) else {
+        return false;
+    };
+    let ahead = row
+        .iter()
+        .filter_map(|&q| points.get(q as usize))
+        .filter(|&&q| {
+            let d = sub(q, x);
+            let h = dot(d, n);
+            let t = [d[0] - h * n[0], d[1] - h * n[1], d[2] - h * n[2]];
+            // cos(angle to dir) > 1/2, without the square root.
+            let a = dot(t, dir);
+            a > 0.0 && 4.0 * a * a > dot(t, t)
+        })
+        .count();
+    ahead >= AHEAD
+}
+
 /// One flag per cluster (index as in `members`): on the border of the data. A
 /// cluster's normal is the sum of its points' plane normals, each flipped to
 /// agree with the first; a cluster without points or without a usable normal is
@@ -92,6 +124,7 @@ pub fn try_border_clusters_in<'a, 'b, A: Alloc<'b>>(
     points: &[V3],
     members: &Members,
     planes: &Planes,
+    nb: &Neighbours,
     cand: &Candidates,
     per_edge: &[u8],
     generators: &[V3],
@@ -170,12 +203,20 @@ pub fn try_border_clusters_in<'a, 'b, A: Alloc<'b>>(
                 .map(|&k| generators[k as usize]);
             let (gap, dir) = largest_gap(generators[j], n, around, angles);
             if gap > angle && frayed[j] {
-                out[j] = true;
+                // The member farthest into the gap: where the data ends, its
+                // neighbours all lie behind it or along the border.
                 let g = generators[j];
-                let reach = pts
-                    .iter()
-                    .map(|&i| dot(sub(points[i as usize], g), dir))
-                    .fold(0.0f32, f32::max);
+                let (mut reach, mut end) = (0.0f32, first);
+                for &i in pts {
+                    let x = dot(sub(points[i as usize], g), dir);
+                    if x > reach {
+                        (reach, end) = (x, i);
+                    }
+                }
+                if data_beyond(points, nb, end, n, dir) {
+                    continue;
+                }
+                out[j] = true;
                 for c in 0..3 {
                     moved[j][c] = g[c] + reach * dir[c];
                 }
