@@ -109,7 +109,9 @@ pub(super) struct Densified {
 
 /// Adds at most `budget` vertices to `mesh` at the points farther than
 /// `threshold` from it (see the module docs), in [`DENSIFY_PASSES`] passes at
-/// most. `distances` holds each point's distance to the mesh on entry; after
+/// most. A point farther than `bound` (an error bound: infinite for none)
+/// needs no neighbours' support, and `bound` lowers `threshold` when nearer:
+/// the caller asked for every point within it. `distances` holds each point's distance to the mesh on entry; after
 /// each pass those of the points in the clusters of the vertices it touched
 /// are measured again (the others change little), so on return they are
 /// stale: measure again after moving the vertices. The buffers of `mesh` must
@@ -125,8 +127,10 @@ pub(super) fn densify<'b, S: Alloc<'b>>(
     distances: &mut [f32],
     budget: usize,
     threshold: f32,
+    bound: f32,
     tol: f32,
 ) -> Result<Densified> {
+    let threshold = threshold.min(bound);
     let mut out = Densified::default();
     let budget = budget
         .min(mesh.vertices.len().saturating_sub(mesh.nv))
@@ -193,7 +197,7 @@ pub(super) fn densify<'b, S: Alloc<'b>>(
                             }
                         }
                     }
-                    2 * far >= nb.k || 2 * on >= nb.k
+                    e > bound || 2 * far >= nb.k || 2 * on >= nb.k
                 };
                 let mut count = 0;
                 for j in 0..members.len() {
