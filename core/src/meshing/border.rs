@@ -7,7 +7,7 @@
 //! candidate graph: one of its candidate edges has fewer than two candidate
 //! facets. The gap alone also fires at thin parts and sharp edges of closed
 //! surfaces; the second test keeps those inside. Last, the data must end there:
-//! the cluster's member farthest into the gap has fewer than [`AHEAD`] of its k
+//! the cluster's member farthest into the gap has fewer than `AHEAD` of its k
 //! nearest points ahead of it. Irregular samples (the vertices of CAD meshes,
 //! with long thin triangles) leave gaps and frayed edges in the candidate graph
 //! of closed surfaces; the points there go on.
