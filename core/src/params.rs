@@ -180,6 +180,18 @@ impl Params {
         }
     }
 
+    /// The largest distance from a point to the mesh that `max_error` allows,
+    /// for a cloud of bounding-box diagonal `diag` (just inside the bound, so
+    /// that an evaluation in other units still finds it met); infinite without
+    /// a bound.
+    pub fn max_distance(&self, diag: f32) -> f32 {
+        if self.max_error > 0.0 {
+            self.max_error * diag * (1.0 - 1e-4)
+        } else {
+            f32::INFINITY
+        }
+    }
+
     /// The cluster cap splitting works towards.
     pub fn cluster_cap(&self) -> u32 {
         if self.max_clusters == 0 {

@@ -179,18 +179,18 @@ pub(super) fn densify<'b, S: Alloc<'b>>(
                 // their noise floor: under noise they are too unsteady to
                 // tell. (distance, point, cluster), farthest first (lower
                 // point index among equals).
-                let steady = |e: f32| 0.5 * e >= PLANE_NOISE * planes.noise;
                 let supported = |i: u32, e: f32| {
                     let Some(&p) = points.get(i as usize) else {
                         return false;
                     };
+                    let steady = 0.5 * e >= PLANE_NOISE * planes.noise;
                     let row = nb.knn.get(i as usize * nb.k..(i as usize + 1) * nb.k);
                     let (mut far, mut on) = (0, 0);
                     for &q in row.unwrap_or(&[]) {
                         if distances.get(q as usize).is_some_and(|&x| x > e / 2.0) {
                             far += 1;
                         }
-                        if let Some(&u) = planes.planes.get(q as usize).filter(|_| steady(e)) {
+                        if let Some(&u) = planes.planes.get(q as usize).filter(|_| steady) {
                             let (r, w) = (plane_eval(u, p), plane_weight(u));
                             if w > 0.0 && r * r <= 0.25 * e * e * w {
                                 on += 1;

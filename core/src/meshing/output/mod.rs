@@ -561,11 +561,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
                 Ok(summarise(t.try_alloc_copy::<f32>(d)?, 1.0).p99)
             })?;
             // Under an error bound every point beyond it is wanted in.
-            let bound = if params.max_error > 0.0 {
-                params.max_error * diag * (1.0 - 1e-4)
-            } else {
-                f32::INFINITY
-            };
+            let bound = params.max_distance(diag);
             let done = densify(
                 s, points, members, nb, planes, &mut mesh, d, extra, p99, bound, tol,
             )?;
