@@ -20,6 +20,35 @@ pub fn mesh_capacity_may_run_out(n: usize, params: &vsaqem_core::Params) -> bool
     n < DENSE_BELOW * cap
 }
 
+/// Cleans `points` with `params` as the CLI does, then reconstructs the points
+/// it keeps in the same buffer: `f` gets the cleaning's statistics, the kept
+/// points and the reconstruction. Panics on an error (tests only).
+pub fn clean_and_reconstruct<T>(
+    points: &[V3],
+    params: &vsaqem_core::Params,
+    f: impl FnOnce(vsaqem_core::CleanStats, &[V3], &vsaqem_core::Reconstruction) -> T,
+) -> T {
+    use std::mem::MaybeUninit;
+    use vsaqem_core::{arena_bytes, clean, clean_bytes, reconstruct, Arena, Silent};
+    let n = points.len();
+    let mut buf = vec![MaybeUninit::uninit(); arena_bytes(n, params).max(clean_bytes(n, params))];
+    let mut keep = vec![true; n];
+    let stats = {
+        let arena = Arena::new(&mut buf);
+        clean(&arena, points, params, &mut keep, &mut Silent).expect("cleaning")
+    };
+    let kept: Vec<V3> = points
+        .iter()
+        .zip(&keep)
+        .filter(|(_, &k)| k)
+        .map(|(p, _)| *p)
+        .collect();
+    assert_eq!(kept.len(), stats.kept as usize);
+    let arena = Arena::new(&mut buf);
+    let r = reconstruct(&arena, &kept, None, params, &mut Silent).expect("reconstruction");
+    f(stats, &kept, &r)
+}
+
 /// `n` points on `shape` (seeded).
 pub fn cloud(shape: Shape, n: usize, seed: u64) -> Vec<V3> {
     let mut p = vec![[0.0; 3]; n];

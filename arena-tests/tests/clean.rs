@@ -8,13 +8,11 @@
 //!
 //! Shared clouds are read from `../shared/data/clouds` (skipped when absent).
 
-use arena_tests::{cloud, load_shared_cloud, shared_clouds, stem, topology};
+use arena_tests::{clean_and_reconstruct, cloud, load_shared_cloud, shared_clouds, stem, topology};
 use std::mem::MaybeUninit;
 use vsaqem_core::rng::Rng;
 use vsaqem_core::sample::{scene_fragment, Shape, SCENE_CUBE, SCENE_SPHERE};
-use vsaqem_core::{
-    arena_bytes, clean, clean_bytes, reconstruct, Arena, CleanStats, Error, Params, Silent, V3,
-};
+use vsaqem_core::{arena_bytes, clean, clean_bytes, Arena, CleanStats, Error, Params, Silent, V3};
 
 /// `points` with `extra` uniform outliers in `[-1, 1]^3` after them.
 fn with_outliers(mut points: Vec<V3>, extra: usize, seed: u64) -> Vec<V3> {
@@ -107,24 +105,10 @@ fn clean_bytes_is_enough_and_at_most_about_twice_the_peak() {
 
 /// Clean with `params`, keep what it keeps, reconstruct in the same buffer:
 /// the stats and the mesh.
-fn clean_and_reconstruct(points: &[V3], params: &Params) -> (CleanStats, Vec<V3>, Vec<[u32; 3]>) {
-    let n = points.len();
-    let mut buf = vec![MaybeUninit::uninit(); arena_bytes(n, params).max(clean_bytes(n, params))];
-    let mut keep = vec![true; n];
-    let stats = {
-        let arena = Arena::new(&mut buf);
-        clean(&arena, points, params, &mut keep, &mut Silent).unwrap()
-    };
-    let kept: Vec<V3> = points
-        .iter()
-        .zip(&keep)
-        .filter(|(_, &k)| k)
-        .map(|(p, _)| *p)
-        .collect();
-    assert_eq!(kept.len(), stats.kept as usize);
-    let arena = Arena::new(&mut buf);
-    let r = reconstruct(&arena, &kept, None, params, &mut Silent).unwrap();
-    (stats, r.mesh.vertices.to_vec(), r.mesh.triangles.to_vec())
+fn clean_then_mesh(points: &[V3], params: &Params) -> (CleanStats, Vec<V3>, Vec<[u32; 3]>) {
+    clean_and_reconstruct(points, params, |stats, _, r| {
+        (stats, r.mesh.vertices.to_vec(), r.mesh.triangles.to_vec())
+    })
 }
 
 /// Connected components of a triangle mesh, as a label per vertex.
@@ -154,7 +138,7 @@ fn the_scene_gives_one_closed_surface_per_object_and_drops_the_fragment() {
     let n = 20_000;
     let points = cloud(Shape::Scene, n, 1);
     let params = Params::default();
-    let (stats, vertices, triangles) = clean_and_reconstruct(&points, &params);
+    let (stats, vertices, triangles) = clean_then_mesh(&points, &params);
     let nf = scene_fragment(n) as u32;
     assert_eq!(
         (
@@ -210,7 +194,7 @@ fn outliers_in_a_spheres_box_leave_no_spike_in_its_mesh() {
     let points = with_outliers(cloud(Shape::Sphere, 20_000, 1), 200, 7);
     let diag = 2.0 * 3f32.sqrt();
     let farthest = |params: &Params| {
-        let (stats, vertices, triangles) = clean_and_reconstruct(&points, params);
+        let (stats, vertices, triangles) = clean_then_mesh(&points, params);
         let topo = topology(&vertices, &triangles);
         let far = vertices
             .iter()

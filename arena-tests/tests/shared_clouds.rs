@@ -16,10 +16,9 @@
 //! 60 reconstructions: slow in a debug build, so `#[ignore]`d; CI runs them in
 //! release (`cargo test --release -p arena-tests --test shared_clouds -- --ignored`).
 
-use arena_tests::{load_shared_cloud, shared_clouds, stem};
-use std::mem::MaybeUninit;
+use arena_tests::{clean_and_reconstruct, load_shared_cloud, shared_clouds, stem};
 use vsaqem::eval::{evaluate, Evaluation};
-use vsaqem_core::{arena_bytes, clean, clean_bytes, reconstruct, Arena, Params, Silent, V3};
+use vsaqem_core::{Params, V3};
 
 /// The closed models and their genus (`../shared/data/SOURCES.md`; the bunny's
 /// base has small holes in the data, which the mesh closes).
@@ -86,29 +85,14 @@ struct Run {
 }
 
 fn run(points: &[V3], params: &Params) -> Run {
-    let n = points.len();
-    let mut buf = vec![MaybeUninit::uninit(); arena_bytes(n, params).max(clean_bytes(n, params))];
-    let mut keep = vec![true; n];
-    {
-        let arena = Arena::new(&mut buf);
-        clean(&arena, points, params, &mut keep, &mut Silent).expect("cleaning");
-    }
-    let kept: Vec<V3> = points
-        .iter()
-        .zip(&keep)
-        .filter(|(_, &k)| k)
-        .map(|(p, _)| *p)
-        .collect();
-    let arena = Arena::new(&mut buf);
-    let r = reconstruct(&arena, &kept, None, params, &mut Silent).expect("reconstruction");
     let f64s = |v: &[V3]| v.iter().map(|p| p.map(f64::from)).collect::<Vec<_>>();
-    Run {
+    clean_and_reconstruct(points, params, |_, kept, r| Run {
         all: f64s(points),
-        kept: f64s(&kept),
+        kept: f64s(kept),
         vertices: f64s(r.mesh.vertices),
         triangles: r.mesh.triangles.to_vec(),
         core_max: r.meshing.mesh.distance.max,
-    }
+    })
 }
 
 fn summary(e: &Evaluation) -> String {
@@ -136,21 +120,9 @@ fn shared_clouds_give_valid_meshes_at_every_cluster_count() {
             };
             let r = run(&points, &params);
             let e = evaluate(&r.kept, &r.vertices, &r.triangles, 0);
-            let (t, v) = (&e.topology, &e.validity);
             let what = format!("{name} at {clusters} clusters: {}", summary(&e));
             eprintln!("{what}");
-            let sound = t.faces > 0
-                && t.non_manifold_edges == 0
-                && t.non_manifold_vertices == 0
-                && t.inconsistent_edges == 0
-                && t.degenerate_faces == 0
-                && t.duplicate_faces == 0
-                && t.invalid_faces == 0
-                && v.self_intersecting_pairs == 0
-                && v.coincident_vertices == 0
-                && v.folded_edges == 0
-                && v.bubbles == 0;
-            if !sound {
+            if !e.is_sound() {
                 failures.push(format!("not a sound mesh: {what}"));
             }
             if let Some(g) = genus {

@@ -216,14 +216,16 @@ impl Evaluation {
         d / self.diagonal
     }
 
-    /// A valid solid: faces, all proper (no degenerate, duplicate or out-of-range
-    /// face), forming a closed manifold ([`Topology::is_closed_manifold`]) with no
-    /// self-intersecting pair, coincident vertex, folded edge or bubble; and, when
-    /// `genus` is given, [`Validity::handles`] equal to it.
-    pub fn is_valid_solid(&self, genus: Option<u64>) -> bool {
+    /// A sound surface, open or closed: faces, all proper (no degenerate,
+    /// duplicate or out-of-range face), edge- and vertex-manifold and
+    /// consistently oriented, with no self-intersecting pair, coincident vertex,
+    /// folded edge or bubble.
+    pub fn is_sound(&self) -> bool {
         let (t, v) = (&self.topology, &self.validity);
         t.faces > 0
-            && t.is_closed_manifold()
+            && t.non_manifold_edges == 0
+            && t.non_manifold_vertices == 0
+            && t.inconsistent_edges == 0
             && t.degenerate_faces == 0
             && t.duplicate_faces == 0
             && t.invalid_faces == 0
@@ -231,7 +233,15 @@ impl Evaluation {
             && v.coincident_vertices == 0
             && v.folded_edges == 0
             && v.bubbles == 0
-            && genus.is_none_or(|g| g == v.handles())
+    }
+
+    /// A valid solid: sound ([`Evaluation::is_sound`]) and closed (no boundary
+    /// edge, so a closed manifold: [`Topology::is_closed_manifold`]); and, when
+    /// `genus` is given, [`Validity::handles`] equal to it.
+    pub fn is_valid_solid(&self, genus: Option<u64>) -> bool {
+        self.is_sound()
+            && self.topology.is_closed_manifold()
+            && genus.is_none_or(|g| g == self.validity.handles())
     }
 }
 
