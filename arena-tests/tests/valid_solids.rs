@@ -111,9 +111,12 @@ fn vertices_added_where_the_mesh_is_farthest_stay_within_their_budget_and_bring_
     for (shape, genus) in CLOSED {
         let pts = cloud(shape, 20_000, 1);
         let run = |densify: f32| {
+            // No rounds for far points: they would differ with and without
+            // densifying, and so would the clusters compared.
             let params = Params {
                 clusters: 250,
                 densify,
+                refine_beyond: 0.0,
                 ..Params::default()
             };
             let mut buf = vec![MaybeUninit::uninit(); arena_bytes(pts.len(), &params)];
@@ -147,6 +150,40 @@ fn vertices_added_where_the_mesh_is_farthest_stay_within_their_budget_and_bring_
         assert!(
             mean1 <= mean0,
             "{shape:?}: the mean distance rose from {mean0} to {mean1} with {added1} vertices added"
+        );
+    }
+}
+
+#[test]
+fn points_farther_than_refine_beyond_draw_a_refinement_round_that_brings_them_in() {
+    // At 60 clusters the faces of a cylinder and a hemisphere cut across
+    // parts of the data by more than 0.75 % of the diagonal; a round with a
+    // generator at each such cluster's farthest point brings them within it.
+    for shape in [Shape::Cylinder, Shape::Hemisphere] {
+        let pts = cloud(shape, 20_000, 1);
+        let diag = arena_tests::diagonal(&pts);
+        let run = |refine_beyond: f32| {
+            let params = Params {
+                clusters: 60,
+                refine_beyond,
+                ..Params::default()
+            };
+            let mut buf = vec![MaybeUninit::uninit(); arena_bytes(pts.len(), &params)];
+            let arena = Arena::new(&mut buf);
+            let r = reconstruct(&arena, &pts, None, &params, &mut Silent)
+                .unwrap_or_else(|e| panic!("{shape:?}: {e}"));
+            let e =
+                vsaqem::eval::evaluate(&f64s(&pts), &f64s(r.mesh.vertices), r.mesh.triangles, 1000);
+            (e.point_to_mesh.stats.max / diag, r.meshing.refine_added)
+        };
+        let goal = Params::default().refine_beyond as f64;
+        let (before, added0) = run(0.0);
+        let (after, added) = run(goal as f32);
+        assert_eq!(added0, 0, "{shape:?}: a round without a goal");
+        assert!(before > goal, "{shape:?}: {before} already within {goal}");
+        assert!(
+            added > 0 && after <= goal,
+            "{shape:?}: {after} after {added} generators"
         );
     }
 }

@@ -171,8 +171,8 @@ pub fn reconstruct<'a>(
         .used()
         .saturating_add(budget::reconstruct_bound(points.len(), params));
     let mut clustering = clustering::try_clustering_in(arena, points, normals, params, progress)?;
-    // Points may be at most this far from the mesh.
-    let max_distance = params.max_distance(clustering.bounds.diag);
+    // Points farther than this from the mesh call for a refinement round.
+    let max_distance = params.refine_distance(clustering.bounds.diag);
     // Clusters a round leaves without a face, for refinement: one buffer for all
     // rounds, so a round leaves nothing behind but, when it is the last, the mesh.
     let uncovered = arena.try_alloc_slice::<u32>(clustering.state.cap(), 0)?;

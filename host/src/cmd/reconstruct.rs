@@ -50,9 +50,16 @@ pub struct MeshArgs {
     /// the 99th percentile of the points' distances, farthest first (0: off).
     #[arg(long, value_name = "F", default_value_t = Params::default().densify)]
     pub densify: f32,
-    /// Refinement rounds where parts of the data are left out of the mesh.
+    /// Refinement rounds where parts of the data are left out of the mesh or
+    /// farther than --refine-beyond from it.
     #[arg(long, default_value_t = Params::default().refine_rounds)]
     pub refine_rounds: u32,
+    /// Without --max-error, refinement rounds also run while some point is
+    /// farther than this from the mesh, fraction of the diagonal: a vertex is
+    /// added there and the mesh made again, at most --refine-rounds times
+    /// (a goal, not a bound; 0: rounds only where clusters are left out).
+    #[arg(long, value_name = "F", default_value_t = Params::default().refine_beyond)]
+    pub refine_beyond: f32,
     /// Error bound, fraction of the bounding-box diagonal (e.g. 0.005 = 0.5 %):
     /// where a point is farther than this from the mesh, a vertex is added
     /// there and the mesh made again, until every point is within it or the
@@ -103,6 +110,7 @@ impl Cmd {
             max_hole: self.mesh.max_hole,
             border_angle: self.mesh.border_angle,
             refine_rounds: self.mesh.refine_rounds,
+            refine_beyond: self.mesh.refine_beyond,
             fit_rounds: self.mesh.fit_rounds,
             densify: self.mesh.densify,
             max_error: self.mesh.max_error,

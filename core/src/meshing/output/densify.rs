@@ -25,7 +25,7 @@ use crate::arena::Alloc;
 use crate::clustering::knn::Neighbours;
 use crate::clustering::quadric::{plane_eval, plane_weight, Planes};
 use crate::error::Result;
-use crate::math::{closest_on_triangle, V3};
+use crate::math::{closest_on_triangle, norm, sub, V3};
 use crate::meshing::candidates::Members;
 use crate::meshing::face_grid::FaceGrid;
 
@@ -96,6 +96,84 @@ impl Growing<'_> {
             Ok((back, found))
         })
     }
+}
+
+/// Whether point `i`, at distance `e` from the mesh, is part of the surface
+/// the mesh misses, not a stray point: at least half its neighbours are at
+/// least half as far, or at least half its neighbours' tangent planes pass
+/// within half that distance of it (a sparse sample of a curved part the faces
+/// cut across; a stray point lies about its whole distance off its neighbours'
+/// planes). The planes count only where half the distance is at least
+/// [`PLANE_NOISE`] times their noise floor: under noise they are too unsteady
+/// to tell. `distances` holds every point's distance to the mesh.
+pub(super) fn supported(
+    points: &[V3],
+    nb: &Neighbours,
+    planes: &Planes,
+    distances: &[f32],
+    i: u32,
+    e: f32,
+) -> bool {
+    let Some(&p) = points.get(i as usize) else {
+        return false;
+    };
+    let steady = 0.5 * e >= PLANE_NOISE * planes.noise;
+    let row = nb.knn.get(i as usize * nb.k..(i as usize + 1) * nb.k);
+    let (mut far, mut on) = (0, 0);
+    for &q in row.unwrap_or(&[]) {
+        if distances.get(q as usize).is_some_and(|&x| x > e / 2.0) {
+            far += 1;
+        }
+        if let Some(&u) = planes.planes.get(q as usize).filter(|_| steady) {
+            let (r, w) = (plane_eval(u, p), plane_weight(u));
+            if w > 0.0 && r * r <= 0.25 * e * e * w {
+                on += 1;
+            }
+        }
+    }
+    2 * far >= nb.k || 2 * on >= nb.k
+}
+
+/// Whether point `i`, at distance `e` from the mesh, is part of the surface
+/// for a refinement round. Only where half the distance is at least
+/// [`PLANE_NOISE`] times the planes' noise floor (under noise, points a few
+/// noise widths off the mesh, and their neighbours with them, are not the
+/// mesh's fault); then when [`supported`], or when it does not stand apart
+/// from its neighbours: its nearest neighbour at most twice as far as theirs
+/// are on average. A sparse sample of a thin part the mesh cuts off is spaced
+/// like its neighbours; a stray point near a denser surface is not.
+pub(super) fn part_of_surface(
+    points: &[V3],
+    nb: &Neighbours,
+    planes: &Planes,
+    distances: &[f32],
+    i: u32,
+    e: f32,
+) -> bool {
+    if 0.5 * e < PLANE_NOISE * planes.noise {
+        return false;
+    }
+    if supported(points, nb, planes, distances, i, e) {
+        return true;
+    }
+    let nearest = |i: u32| -> Option<f32> {
+        let p = *points.get(i as usize)?;
+        let &q = nb.knn.get(i as usize * nb.k)?;
+        let q = *points.get(q as usize)?;
+        Some(norm(sub(p, q)))
+    };
+    let Some(own) = nearest(i) else {
+        return false;
+    };
+    let row = nb.knn.get(i as usize * nb.k..(i as usize + 1) * nb.k);
+    let (mut sum, mut n) = (0.0f32, 0u32);
+    for &q in row.unwrap_or(&[]) {
+        if let Some(x) = nearest(q) {
+            sum += x;
+            n += 1;
+        }
+    }
+    n > 0 && own <= 2.0 * sum / n as f32
 }
 
 /// What densifying did.
@@ -169,36 +247,11 @@ pub(super) fn densify<'b, S: Alloc<'b>>(
                     }
                 }
                 // Each cluster's farthest point beyond the threshold that is
-                // part of the surface the mesh misses, not a stray point: at
-                // least half its neighbours are at least half as far, or at
-                // least half its neighbours' tangent planes pass within half
-                // that distance of it (a sparse sample of a curved part the
-                // faces cut across; a stray point lies about its whole
-                // distance off its neighbours' planes). The planes count only
-                // where half the distance is at least `PLANE_NOISE` times
-                // their noise floor: under noise they are too unsteady to
-                // tell. (distance, point, cluster), farthest first (lower
-                // point index among equals).
-                let supported = |i: u32, e: f32| {
-                    let Some(&p) = points.get(i as usize) else {
-                        return false;
-                    };
-                    let steady = 0.5 * e >= PLANE_NOISE * planes.noise;
-                    let row = nb.knn.get(i as usize * nb.k..(i as usize + 1) * nb.k);
-                    let (mut far, mut on) = (0, 0);
-                    for &q in row.unwrap_or(&[]) {
-                        if distances.get(q as usize).is_some_and(|&x| x > e / 2.0) {
-                            far += 1;
-                        }
-                        if let Some(&u) = planes.planes.get(q as usize).filter(|_| steady) {
-                            let (r, w) = (plane_eval(u, p), plane_weight(u));
-                            if w > 0.0 && r * r <= 0.25 * e * e * w {
-                                on += 1;
-                            }
-                        }
-                    }
-                    e > bound || 2 * far >= nb.k || 2 * on >= nb.k
-                };
+                // part of the surface the mesh misses ([`supported`]), or
+                // beyond the bound. (distance, point, cluster), farthest
+                // first (lower point index among equals).
+                let supported =
+                    |i: u32, e: f32| e > bound || supported(points, nb, planes, distances, i, e);
                 let mut count = 0;
                 for j in 0..members.len() {
                     let mut best: Option<(f32, u32)> = None;

@@ -45,7 +45,7 @@ use crate::meshing::distance::{summarise, try_point_distances_in, MeshDistance};
 use crate::meshing::fit::{try_fit_vertices_in, FitStats, LAMBDA};
 use crate::params::Params;
 
-use densify::{densify, Growing};
+use densify::{densify, part_of_surface, Growing};
 use holes::{fill_holes, Filled};
 use insert::insert_skipped;
 use orient::orient;
@@ -449,11 +449,10 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
         };
         let mut stats = stats;
         let max_distance = match output {
-            // Without a distance bound, clusters left out are what refinement
-            // splits; with one, the points farthest from the mesh are.
-            Output::IfFaithful { max_distance }
-                if uncovered_clusters > 0 && max_distance.is_infinite() =>
-            {
+            // Without an error bound, clusters left out are what refinement
+            // splits first; with one, and after them, the points farthest
+            // from the mesh are.
+            Output::IfFaithful { .. } if uncovered_clusters > 0 && params.max_error <= 0.0 => {
                 return Ok((None, stats))
             }
             Output::IfFaithful { max_distance } => max_distance,
@@ -607,10 +606,18 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
         let far = {
             let mut far = 0usize;
             for j in 0..members.len() {
+                // Under an error bound every point counts; refining towards
+                // `refine_beyond`, only those that are part of the surface (a
+                // stray point would draw a spike).
                 let worst = members
                     .of(j)
                     .iter()
                     .filter_map(|&i| Some((*d.get(i as usize)?, i)))
+                    .filter(|&(e, i)| {
+                        params.max_error > 0.0
+                            || e <= max_distance
+                            || part_of_surface(points, nb, planes, d, i, e)
+                    })
                     .fold(None, |w: Option<(f32, u32)>, (e, i)| match w {
                         Some((x, _)) if x >= e => w,
                         _ => Some((e, i)),
