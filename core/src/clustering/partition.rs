@@ -30,7 +30,7 @@ use crate::clustering::knn::Neighbours;
 use crate::clustering::quadric::{Planes, Quadric};
 use crate::clustering::split;
 use crate::error::Result;
-use crate::math::{dist2, V3};
+use crate::math::{dist2, dot, sub, V3};
 use crate::params::Params;
 use crate::progress::{tick, Progress, Stage};
 use crate::rng::Rng;
@@ -216,8 +216,9 @@ impl<'a> ClusterState<'a> {
         }
     }
 
-    /// Split each cluster of `targets` at its worst point (largest error, see
-    /// `split`), as room under the cap allows, then relax with
+    /// Split each cluster of `targets` across its length (at the member
+    /// farthest from the line through the generator and its worst point, of
+    /// largest error, see `split`), as room under the cap allows, then relax with
     /// `params.split_iterations` passes. Returns the generators added.
     #[allow(clippy::too_many_arguments)]
     pub fn refine(
@@ -254,17 +255,48 @@ impl<'a> ClusterState<'a> {
                     }
                 }
             }
+            // The worst point lies at an end of the cluster; the new generator
+            // goes to the member farthest from the line through the generator
+            // and that point. A cluster of a strip one cluster wide (which has
+            // no candidate facet) is split across the strip, into two clusters
+            // side by side that facets can join, where splitting at the worst
+            // point would only lengthen the strip.
+            let along = s.try_alloc_slice::<u32>(m, u32::MAX)?;
+            for j in 0..m {
+                along[j] = worst[j].1;
+                worst[j] = (-1.0, u32::MAX);
+            }
+            for (i, &l) in self.labels.iter().enumerate() {
+                let j = l as usize;
+                let Some(&w) = along.get(j).filter(|_| j < m && wanted[j]) else {
+                    continue;
+                };
+                let (Some(&p), Some(&q)) = (points.get(i), points.get(w as usize)) else {
+                    continue;
+                };
+                let g = self.generators[j];
+                let (d, x) = (sub(q, g), sub(p, g));
+                let dd = dot(d, d);
+                let t = if dd > 0.0 { dot(x, d) / dd } else { 0.0 };
+                let r = sub(x, [t * d[0], t * d[1], t * d[2]]);
+                let e = dot(r, r);
+                if e > worst[j].0 {
+                    worst[j] = (e, i as u32);
+                }
+            }
             let mut added = 0;
             for j in 0..m {
-                let (_, p) = worst[j];
-                if wanted[j]
-                    && p != u32::MAX
-                    && p != self.seeds[j]
-                    && m + added < self.generators.len()
-                {
-                    self.generators[m + added] = points[p as usize];
-                    self.seeds[m + added] = p;
-                    added += 1;
+                let (a, b) = (along[j], worst[j].1);
+                for p in [Some(a), (b != a).then_some(b)].into_iter().flatten() {
+                    if wanted[j]
+                        && p != u32::MAX
+                        && p != self.seeds[j]
+                        && m + added < self.generators.len()
+                    {
+                        self.generators[m + added] = points[p as usize];
+                        self.seeds[m + added] = p;
+                        added += 1;
+                    }
                 }
             }
             Ok(added)
