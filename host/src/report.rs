@@ -171,12 +171,35 @@ fn count(n: u32, what: &str) -> String {
 
 /// The clustering error fields both reports give: `max_error_relative`,
 /// `tolerance_relative` (`tolerance`, as asked), `tolerance_used_relative`,
-/// `noise_floor_relative`, all relative to the diagonal.
-pub fn error_json(o: &mut Obj, c: &ClusterStats, tolerance: f32) {
+/// `noise_floor_relative`, all relative to the diagonal; `tolerance_met`
+/// (the largest error within the tolerance used) and `cluster_cap` (`cap`).
+pub fn error_json(o: &mut Obj, c: &ClusterStats, tolerance: f32, cap: u32) {
     o.num("max_error_relative", c.max_error as f64)
         .num("tolerance_relative", tolerance as f64)
         .num("tolerance_used_relative", c.tolerance as f64)
-        .num("noise_floor_relative", c.noise as f64);
+        .num("noise_floor_relative", c.noise as f64)
+        .bool("tolerance_met", c.max_error <= c.tolerance)
+        .num("cluster_cap", cap as f64);
+}
+
+/// When clustering ended with its largest error above the tolerance used:
+/// what the report says, with why splitting stopped (the cluster cap `cap`, or
+/// all `split_rounds` batches run), and whether the cap is the reason (then
+/// the run warns on stderr too: more clusters were wanted than allowed).
+pub fn tolerance_unmet(c: &ClusterStats, cap: u32, split_rounds: u32) -> Option<(String, bool)> {
+    if !(c.max_error > c.tolerance) || c.tolerance <= 0.0 {
+        return None;
+    }
+    let at_cap = c.clusters >= cap;
+    let why = if at_cap {
+        format!("the cluster cap {cap} is reached (raise --max-clusters)")
+    } else if c.split_rounds + c.rejected_batches >= split_rounds {
+        format!("splitting ran its {split_rounds} batches (--split-rounds)")
+    } else {
+        "no split was left that lowers it".to_string()
+    };
+    let text = format!("tolerance {:.3}% not met: {why}", c.tolerance * 100.0);
+    Some((text, at_cap))
 }
 
 /// What a run took (time, arena) and where it wrote.

@@ -187,3 +187,40 @@ fn the_report_names_every_stage_and_the_json_report_is_written() {
     let cloud = vsaqem::io::read_cloud(&out).unwrap();
     assert!(cloud.positions.len() > 5000);
 }
+
+#[test]
+fn a_run_that_reaches_the_cluster_cap_with_the_tolerance_unmet_says_so() {
+    let d = dir("cap");
+    let run = |max_clusters: &str, split_rounds: &str, name: &str| {
+        let (out, json) = (
+            d.join(format!("{name}.ply")),
+            d.join(format!("{name}.json")),
+        );
+        let r = bin()
+            .args(["reconstruct", "-q", "--sample", "torus", "--points", "5000"])
+            .args(["--clusters", "40", "--max-clusters", max_clusters])
+            .args(["--split-rounds", split_rounds])
+            .arg("-o")
+            .arg(&out)
+            .arg("--report")
+            .arg(&json)
+            .output()
+            .unwrap();
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+        let j = std::fs::read_to_string(json).unwrap();
+        (String::from_utf8_lossy(&r.stderr).into_owned(), j)
+    };
+    // Splitting may not add a cluster: 40 are far too few for 0.5 %.
+    let (stderr, j) = run("40", "5", "capped");
+    assert!(
+        stderr.contains("warning") && stderr.contains("cluster cap 40 is reached"),
+        "{stderr}"
+    );
+    assert!(j.contains("\"tolerance_met\": false"), "{j}");
+    assert!(j.contains("\"cluster_cap\": 40"), "{j}");
+    // With room and batches enough to split, the tolerance is met and
+    // nothing is said.
+    let (stderr, j) = run("1000", "20", "free");
+    assert!(!stderr.contains("warning"), "{stderr}");
+    assert!(j.contains("\"tolerance_met\": true"), "{j}");
+}

@@ -6,7 +6,7 @@ use crate::input::Prepared;
 use crate::io::{publish, write_atomic, write_points_ply};
 use crate::json;
 use crate::progress::StageClock;
-use crate::report::{error_json, InputReport, RunReport};
+use crate::report::{error_json, tolerance_unmet, InputReport, RunReport};
 use clap::Args;
 use std::path::{Path, PathBuf};
 use vsaqem_core::{ClusterStats, Clustered};
@@ -63,6 +63,8 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
         spacing_relative: out.stats.spacing as f64 / diag as f64,
         cluster: out.stats.cluster,
         tolerance: params.tolerance,
+        cap: params.cluster_cap().min(input.points.len() as u32),
+        split_rounds: params.split_rounds,
         run: RunReport::new(
             &clock,
             out.stats.peak_clustering,
@@ -70,6 +72,13 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
             &cmd.output,
         ),
     };
+    if let Some((why, true)) = tolerance_unmet(&report.cluster, report.cap, report.split_rounds) {
+        eprintln!(
+            "warning: {}: {why}; largest error {:.3}% of the diagonal",
+            input.name,
+            report.cluster.max_error * 100.0
+        );
+    }
     publish(&report.text(), cmd.report.as_deref(), || report.json()).map_err(|e| e.to_string())
 }
 
@@ -120,6 +129,10 @@ struct ClusterReport {
     cluster: ClusterStats,
     /// `--tolerance`, as given (`cluster.tolerance` is the one used).
     tolerance: f32,
+    /// The cluster cap.
+    cap: u32,
+    /// `--split-rounds`.
+    split_rounds: u32,
     run: RunReport,
 }
 
@@ -134,7 +147,7 @@ impl ClusterReport {
             "{}\
              neighbours k = {}, average spacing {:.3}% of the diagonal\n\
              clusters   {} ({} initial, +{} by splitting in {} batches, {} batches undone), {} passes{}\n\
-             max error  {:.3}% of the diagonal (tolerance {:.3}%)\n\
+             max error  {:.3}% of the diagonal (tolerance {:.3}%){}\n\
              {}",
             self.input.text(),
             self.k,
@@ -148,6 +161,7 @@ impl ClusterReport {
             if c.converged { ", converged" } else { "" },
             c.max_error * 100.0,
             c.tolerance * 100.0,
+            tolerance_unmet(c, self.cap, self.split_rounds).map_or(String::new(), |(why, _)| format!("; {why}")),
             self.run.text(self.input.points, &output),
         )
     }
@@ -166,7 +180,7 @@ impl ClusterReport {
             .num("split_batches_undone", c.rejected_batches as f64)
             .num("splits", c.splits as f64)
             .bool("converged", c.converged);
-        error_json(&mut o, c, self.tolerance);
+        error_json(&mut o, c, self.tolerance, self.cap);
         self.run.json(&mut o);
         o.finish() + "\n"
     }

@@ -6,7 +6,7 @@ use crate::input::Prepared;
 use crate::io::{publish, write_atomic, write_mesh, MeshFormat};
 use crate::json;
 use crate::progress::StageClock;
-use crate::report::{error_json, InputReport, RunReport};
+use crate::report::{error_json, tolerance_unmet, InputReport, RunReport};
 use clap::Args;
 use std::path::{Path, PathBuf};
 use vsaqem_core::{ClusterStats, Error, MeshingStats, Params, Reconstruction};
@@ -157,9 +157,17 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
         tolerance: params.tolerance,
         max_error: params.max_error,
         cap: params.cluster_cap().min(input.points.len() as u32),
+        split_rounds: params.split_rounds,
         meshing: out.meshing,
         run: RunReport::new(&clock, out.meshing.peak, arena_reserved, &cmd.output),
     };
+    if let Some((why, true)) = tolerance_unmet(&report.cluster, report.cap, report.split_rounds) {
+        eprintln!(
+            "warning: {}: {why}; largest error {:.3}% of the diagonal",
+            input.name,
+            report.cluster.max_error * 100.0
+        );
+    }
     if let Some(over) = report.max_error_missed() {
         eprintln!(
             "warning: {}: --max-error {} not met: the farthest point is {:.3}% of the \
@@ -206,6 +214,8 @@ struct ReconstructReport {
     max_error: f32,
     /// The cluster cap.
     cap: u32,
+    /// `--split-rounds`.
+    split_rounds: u32,
     meshing: MeshingStats,
     run: RunReport,
 }
@@ -296,7 +306,7 @@ impl ReconstructReport {
         };
         format!(
             "{}\
-             clusters   {} ({} initial, +{} by splitting, +{} by refinement in {} rounds), max error {:.3}% of the diagonal\n\
+             clusters   {} ({} initial, +{} by splitting, +{} by refinement in {} rounds), max error {:.3}% of the diagonal{}\n\
              candidates {} edges, {} facets ({} degenerate, {} fold groups, {} generators merged), {:.1} supports per facet\n\
              selection  {solver}, {} independent parts (largest {} facets), {} facets fixed by propagation\n\
              mesh       {} vertices, {} faces, {} components, {closed}; {} skipped clusters inserted\n\
@@ -312,6 +322,7 @@ impl ReconstructReport {
             m.refine_added,
             m.refine_rounds,
             cl.max_error * 100.0,
+            tolerance_unmet(cl, self.cap, self.split_rounds).map_or(String::new(), |(why, _)| format!("; {why}")),
             m.candidate_edges,
             m.candidate_facets,
             m.degenerate_facets,
@@ -355,7 +366,7 @@ impl ReconstructReport {
             .num("refine_rounds", m.refine_rounds as f64)
             .num("refine_added", m.refine_added as f64)
             .num("passes", cl.passes as f64);
-        error_json(&mut o, cl, self.tolerance);
+        error_json(&mut o, cl, self.tolerance, self.cap);
         o.num("candidate_edges", m.candidate_edges as f64)
             .num("candidate_facets", m.candidate_facets as f64)
             .num("degenerate_facets", m.degenerate_facets as f64)
@@ -394,9 +405,10 @@ impl ReconstructReport {
             .num("distance_max_relative", mesh.distance.max as f64)
             .num("distance_p99_relative", mesh.distance.p99 as f64)
             .num("distance_mean_relative", mesh.distance.mean as f64)
-            .num("max_error_relative", self.max_error as f64);
+            // `max_error_relative` is clustering's (as in `cluster`'s report).
+            .num("error_bound_relative", self.max_error as f64);
         if self.max_error > 0.0 {
-            o.bool("max_error_met", self.max_error_missed().is_none());
+            o.bool("error_bound_met", self.max_error_missed().is_none());
         }
         self.run.json(&mut o);
         o.finish() + "\n"
