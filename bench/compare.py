@@ -256,7 +256,10 @@ def machine_info():
     return info
 
 
-def run_all(a, models, work):
+def run_all(a, models, work, previous):
+    """Runs every system on every model and cluster count. `previous` maps
+    (model, system, clusters, target vertices) to an earlier record of another
+    system that is reused instead of run (`--reuse-others`)."""
     records = []
     total = len(models) * len(a.clusters) * (len(a.iterations) + len(SYSTEMS_OTHER))
     k = 0
@@ -273,9 +276,14 @@ def run_all(a, models, work):
             o3d_n = max(verts) if a.o3d_target == "ours" and verts else n
             for system in SYSTEMS_OTHER:
                 k += 1
-                rec = run_one(a, model, cloud, system, n, o3d_n, work)
-                log(f"[{k}/{total}] {model} N={n} {label(system)} (target {2 * o3d_n} faces): "
-                    f"{brief(rec)}")
+                rec = previous.get((model, system, n, o3d_n))
+                if rec is None:
+                    rec = run_one(a, model, cloud, system, n, o3d_n, work)
+                    how = ""
+                else:
+                    how = ", reused"
+                log(f"[{k}/{total}] {model} N={n} {label(system)} (target {2 * o3d_n} faces"
+                    f"{how}): {brief(rec)}")
                 records.append(rec)
     return records
 
@@ -1004,6 +1012,10 @@ def main():
                     help=f"models to draw side by side ({PICTURE_MODELS}; '' for none)")
     ap.add_argument("--tile", type=lambda s: tuple(map(int, s.split("x"))), default=(200, 200),
                     help="picture tile size WxH (200x200)")
+    ap.add_argument("--reuse-others", action="store_true",
+                    help="run ours, but take Open3D's and MeshLab's runs from the last run's "
+                         "records in --work where one decimated to the same vertex count "
+                         "succeeded (their meshes depend only on that; times are then that run's)")
     ap.add_argument("--reuse", action="store_true",
                     help="do not run anything: redo tables, plots and pictures from the last run's "
                          "records in --work")
@@ -1044,8 +1056,14 @@ def main():
         records = [r for r in old["records"] if (r["model"], r["system"], r["clusters"]) in want]
         log(f"reusing {len(records)} runs of {info['started']} from {saved}")
     else:
+        previous = {}
+        if a.reuse_others and saved.exists():
+            for r in json.loads(saved.read_text())["records"]:
+                if r["system"] in SYSTEMS_OTHER and r["status"] == "ok":
+                    previous[(r["model"], r["system"], r["clusters"], r["target_vertices"])] = r
+            info["reused_from"] = json.loads(saved.read_text())["machine"].get("started")
         t0 = time.perf_counter()
-        records = run_all(a, models, work)
+        records = run_all(a, models, work, previous)
         info["run_s"] = time.perf_counter() - t0
         info["load_after"] = os.getloadavg()
         info["command"] = " ".join(x if x and " " not in x else repr(x) for x in sys.argv[1:])
