@@ -5,8 +5,9 @@
 
 use arena_tests::cloud;
 use std::mem::MaybeUninit;
+use vsaqem::eval::{evaluate, Evaluation};
 use vsaqem_core::sample::Shape;
-use vsaqem_core::{arena_bytes, reconstruct, Arena, Params, Silent, V3};
+use vsaqem_core::{arena_bytes, reconstruct, Arena, Params, Reconstruction, Silent, V3};
 
 /// The closed generated shapes and their genus.
 const CLOSED: [(Shape, u64); 5] = [
@@ -21,6 +22,29 @@ fn f64s(v: &[V3]) -> Vec<[f64; 3]> {
     v.iter().map(|p| p.map(f64::from)).collect()
 }
 
+/// `f` on the reconstruction of `pts` with `params` (in an arena of
+/// `arena_bytes`) and the host's evaluation of its mesh (`samples` points on
+/// it); `what` names the run when it fails.
+fn judged<T>(
+    pts: &[V3],
+    params: &Params,
+    samples: usize,
+    what: &str,
+    f: impl FnOnce(&Reconstruction, &Evaluation) -> T,
+) -> T {
+    let mut buf = vec![MaybeUninit::uninit(); arena_bytes(pts.len(), params)];
+    let arena = Arena::new(&mut buf);
+    let r = reconstruct(&arena, pts, None, params, &mut Silent)
+        .unwrap_or_else(|e| panic!("{what}: {e}"));
+    let e = evaluate(
+        &f64s(pts),
+        &f64s(r.mesh.vertices),
+        r.mesh.triangles,
+        samples,
+    );
+    f(&r, &e)
+}
+
 #[test]
 fn closed_generated_shapes_are_valid_solids_of_their_genus_with_every_cluster_in_the_mesh() {
     for (shape, genus) in CLOSED {
@@ -30,43 +54,44 @@ fn closed_generated_shapes_are_valid_solids_of_their_genus_with_every_cluster_in
                 clusters,
                 ..Params::default()
             };
-            let mut buf = vec![MaybeUninit::uninit(); arena_bytes(pts.len(), &params)];
-            let arena = Arena::new(&mut buf);
-            let r = reconstruct(&arena, &pts, None, &params, &mut Silent)
-                .unwrap_or_else(|e| panic!("{shape:?} {clusters}: {e}"));
-            let (v, t) = (r.mesh.vertices, r.mesh.triangles);
-            let e = vsaqem::eval::evaluate(&f64s(&pts), &f64s(v), t, 1000);
-            let what = format!(
-                "{shape:?} {clusters}: {:?} {:?} {:?}",
-                e.topology, e.validity, r.meshing.mesh
+            judged(
+                &pts,
+                &params,
+                1000,
+                &format!("{shape:?} {clusters}"),
+                |r, e| {
+                    let what = format!(
+                        "{shape:?} {clusters}: {:?} {:?} {:?}",
+                        e.topology, e.validity, r.meshing.mesh
+                    );
+                    assert!(e.is_valid_solid(Some(genus)), "not a valid solid: {what}");
+                    // Every cluster with points is a vertex of the mesh, or was merged
+                    // with one whose generator is within 1e-6 of the diagonal of its own.
+                    let c = &r.clustered.clusters;
+                    let tol2 = (1e-6 * r.clustered.bounds.diag).powi(2);
+                    let mut has_points = vec![false; c.generators.len()];
+                    for &l in c.labels {
+                        has_points[l as usize] = true;
+                    }
+                    let mut vertex = vec![false; c.generators.len()];
+                    for &j in r.mesh.vertex_cluster {
+                        vertex[j as usize] = true;
+                    }
+                    for (j, g) in c.generators.iter().enumerate() {
+                        let in_mesh = vertex[j]
+                            || c.generators.iter().enumerate().any(|(i, h)| {
+                                vertex[i] && vsaqem_core::math::dist2(*g, *h) <= tol2
+                            });
+                        assert!(
+                            !has_points[j] || in_mesh,
+                            "cluster {j} of {shape:?} at {clusters} clusters is left out: {what}"
+                        );
+                    }
+                    assert_eq!(r.meshing.mesh.uncovered_clusters, 0, "{what}");
+                    assert_eq!(r.meshing.mesh.split_vertices, 0, "{what}");
+                    assert_eq!(r.meshing.mesh.tangled_pairs, 0, "{what}");
+                },
             );
-            assert!(e.is_valid_solid(Some(genus)), "not a valid solid: {what}");
-            // Every cluster with points is a vertex of the mesh, or was merged
-            // with one whose generator is within 1e-6 of the diagonal of its own.
-            let c = &r.clustered.clusters;
-            let tol2 = (1e-6 * r.clustered.bounds.diag).powi(2);
-            let mut has_points = vec![false; c.generators.len()];
-            for &l in c.labels {
-                has_points[l as usize] = true;
-            }
-            let mut vertex = vec![false; c.generators.len()];
-            for &j in r.mesh.vertex_cluster {
-                vertex[j as usize] = true;
-            }
-            for (j, g) in c.generators.iter().enumerate() {
-                let in_mesh = vertex[j]
-                    || c.generators
-                        .iter()
-                        .enumerate()
-                        .any(|(i, h)| vertex[i] && vsaqem_core::math::dist2(*g, *h) <= tol2);
-                assert!(
-                    !has_points[j] || in_mesh,
-                    "cluster {j} of {shape:?} at {clusters} clusters is left out: {what}"
-                );
-            }
-            assert_eq!(r.meshing.mesh.uncovered_clusters, 0, "{what}");
-            assert_eq!(r.meshing.mesh.split_vertices, 0, "{what}");
-            assert_eq!(r.meshing.mesh.tangled_pairs, 0, "{what}");
         }
     }
 }
@@ -80,28 +105,24 @@ fn an_error_bound_is_met_on_closed_shapes_as_an_independent_evaluation_measures_
                 max_error: bound,
                 ..Params::default()
             };
-            let mut buf = vec![MaybeUninit::uninit(); arena_bytes(pts.len(), &params)];
-            let arena = Arena::new(&mut buf);
-            let r = reconstruct(&arena, &pts, None, &params, &mut Silent)
-                .unwrap_or_else(|e| panic!("{shape:?} {bound}: {e}"));
-            let e =
-                vsaqem::eval::evaluate(&f64s(&pts), &f64s(r.mesh.vertices), r.mesh.triangles, 0);
-            let max = e.rel(e.point_to_mesh.stats.max);
-            eprintln!(
-                "{shape:?} --max-error {bound}: max {max:.5} (core {:.5}), {} vertices, {} rounds",
-                r.meshing.mesh.distance.max,
-                r.mesh.vertices.len(),
-                r.meshing.refine_rounds
-            );
-            assert!(
-                max <= bound as f64,
-                "{shape:?} {bound}: farthest point at {max}"
-            );
-            assert!(
-                e.is_valid_solid(None),
-                "{shape:?} {bound}: {:?}",
-                e.validity
-            );
+            judged(&pts, &params, 0, &format!("{shape:?} {bound}"), |r, e| {
+                let max = e.rel(e.point_to_mesh.stats.max);
+                eprintln!(
+                    "{shape:?} --max-error {bound}: max {max:.5} (core {:.5}), {} vertices, {} rounds",
+                    r.meshing.mesh.distance.max,
+                    r.mesh.vertices.len(),
+                    r.meshing.refine_rounds
+                );
+                assert!(
+                    max <= bound as f64,
+                    "{shape:?} {bound}: farthest point at {max}"
+                );
+                assert!(
+                    e.is_valid_solid(None),
+                    "{shape:?} {bound}: {:?}",
+                    e.validity
+                );
+            });
         }
     }
 }
@@ -119,21 +140,17 @@ fn vertices_added_where_the_mesh_is_farthest_stay_within_their_budget_and_bring_
                 refine_beyond: 0.0,
                 ..Params::default()
             };
-            let mut buf = vec![MaybeUninit::uninit(); arena_bytes(pts.len(), &params)];
-            let arena = Arena::new(&mut buf);
-            let r = reconstruct(&arena, &pts, None, &params, &mut Silent)
-                .unwrap_or_else(|e| panic!("{shape:?}: {e}"));
-            let e =
-                vsaqem::eval::evaluate(&f64s(&pts), &f64s(r.mesh.vertices), r.mesh.triangles, 1000);
-            assert!(
-                e.is_valid_solid(Some(genus)),
-                "{shape:?} densify {densify}: not a valid solid"
-            );
-            (
-                r.mesh.vertices.len(),
-                r.meshing.mesh.densified as usize,
-                e.point_to_mesh.stats.mean,
-            )
+            judged(&pts, &params, 1000, &format!("{shape:?}"), |r, e| {
+                assert!(
+                    e.is_valid_solid(Some(genus)),
+                    "{shape:?} densify {densify}: not a valid solid"
+                );
+                (
+                    r.mesh.vertices.len(),
+                    r.meshing.mesh.densified as usize,
+                    e.point_to_mesh.stats.mean,
+                )
+            })
         };
         let (v0, added0, mean0) = run(0.0);
         let (v1, added1, mean1) = run(0.1);
@@ -168,13 +185,9 @@ fn points_farther_than_refine_beyond_draw_a_refinement_round_that_brings_them_in
                 refine_beyond,
                 ..Params::default()
             };
-            let mut buf = vec![MaybeUninit::uninit(); arena_bytes(pts.len(), &params)];
-            let arena = Arena::new(&mut buf);
-            let r = reconstruct(&arena, &pts, None, &params, &mut Silent)
-                .unwrap_or_else(|e| panic!("{shape:?}: {e}"));
-            let e =
-                vsaqem::eval::evaluate(&f64s(&pts), &f64s(r.mesh.vertices), r.mesh.triangles, 1000);
-            (e.point_to_mesh.stats.max / diag, r.meshing.refine_added)
+            judged(&pts, &params, 1000, &format!("{shape:?}"), |r, e| {
+                (e.point_to_mesh.stats.max / diag, r.meshing.refine_added)
+            })
         };
         let goal = Params::default().refine_beyond as f64;
         let (before, added0) = run(0.0);

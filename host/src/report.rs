@@ -187,7 +187,7 @@ pub fn error_json(o: &mut Obj, c: &ClusterStats, tolerance: f32, cap: u32) {
 /// all `split_rounds` batches run), and whether the cap is the reason (then
 /// the run warns on stderr too: more clusters were wanted than allowed).
 pub fn tolerance_unmet(c: &ClusterStats, cap: u32, split_rounds: u32) -> Option<(String, bool)> {
-    if !(c.max_error > c.tolerance) || c.tolerance <= 0.0 {
+    if c.max_error.is_nan() || c.max_error <= c.tolerance || c.tolerance <= 0.0 {
         return None;
     }
     let at_cap = c.clusters >= cap;
