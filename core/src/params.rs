@@ -100,7 +100,9 @@ pub struct Params {
     pub max_error: f32,
     /// Where refinement rounds also run without an error bound, as a fraction
     /// of the bounding-box diagonal: while some point that is part of the
-    /// surface (not a stray point) is farther than this from the mesh, the
+    /// surface (not a stray point: see `part_of_surface` in the output stage;
+    /// a point beyond the mesh's boundary always is) is farther than this from
+    /// the mesh, the
     /// farthest such point of each cluster becomes a generator and the mesh is
     /// made again, at most `refine_rounds` times (after rounds for clusters
     /// left out). A goal, not a bound (that is `max_error`): when the rounds

@@ -593,7 +593,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             &mesh.vertices[..nv],
             &mesh.triangles[..nf],
             d,
-            Some(hints),
+            Some(&mut *hints),
         )?;
         let (nv, nf) = (mesh.nv, mesh.nf);
         let (vertices, triangles, vertex_cluster) = (
@@ -601,6 +601,39 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             &mesh.triangles[..nf],
             &mesh.vertex_cluster[..nv],
         );
+        // The vertices of boundary edges, when refining towards
+        // `refine_beyond`: a far point whose nearest face touches one is data
+        // the mesh stops short of (a loop kept open that is no border of the
+        // data, or one short of it), whatever its spacing.
+        let rim = s.try_alloc_slice::<bool>(nv, false)?;
+        if max_distance.is_finite() && params.max_error <= 0.0 {
+            s.scratch(|t| -> Result<()> {
+                let keys = t.try_alloc_slice::<u64>(3 * nf, 0)?;
+                for (f, tri) in triangles.iter().enumerate() {
+                    for k in 0..3 {
+                        keys[3 * f + k] = key(tri[k], tri[(k + 1) % 3]);
+                    }
+                }
+                keys.sort_unstable();
+                for (i, &k) in keys.iter().enumerate() {
+                    let alone = (i == 0 || keys[i - 1] != k) && keys.get(i + 1) != Some(&k);
+                    if alone {
+                        for v in [(k >> 32) as usize, k as u32 as usize] {
+                            if let Some(r) = rim.get_mut(v) {
+                                *r = true;
+                            }
+                        }
+                    }
+                }
+                Ok(())
+            })?;
+        }
+        let at_rim = |i: u32| {
+            hints
+                .get(i as usize)
+                .and_then(|&f| triangles.get(f as usize))
+                .is_some_and(|t| t.iter().any(|&v| rim.get(v as usize) == Some(&true)))
+        };
         stats.vertices = nv as u32;
         stats.faces = nf as u32;
         let far = {
@@ -616,6 +649,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
                     .filter(|&(e, i)| {
                         params.max_error > 0.0
                             || e <= max_distance
+                            || at_rim(i)
                             || part_of_surface(points, nb, planes, d, i, e)
                     })
                     .fold(None, |w: Option<(f32, u32)>, (e, i)| match w {
