@@ -323,8 +323,9 @@ fn settle(vertices: &mut [V3], prev: &[V3], x0: &[V3], triangles: &[[u32; 3]]) -
 
 /// Marks in `fixed` the vertices that must not move: on an edge without
 /// exactly two faces (the boundary, or non-manifold), or on a broken face (an
-/// index out of range, a repeated index, a non-finite corner, no area).
-fn mark_fixed<'b, A: Alloc<'b>>(
+/// index out of range, a repeated index, a non-finite corner, no area). On a
+/// manifold mesh of sound faces: the vertices of its boundary edges.
+pub(crate) fn mark_fixed<'b, A: Alloc<'b>>(
     s: &A,
     vertices: &[V3],
     triangles: &[[u32; 3]],

@@ -42,7 +42,7 @@ use crate::error::Result;
 use crate::math::{add, cross, dot, norm, sub, V3};
 use crate::meshing::candidates::{Candidates, Members};
 use crate::meshing::distance::{summarise, try_point_distances_in, MeshDistance};
-use crate::meshing::fit::{try_fit_vertices_in, FitStats, LAMBDA};
+use crate::meshing::fit::{mark_fixed, try_fit_vertices_in, FitStats, LAMBDA};
 use crate::params::Params;
 
 use densify::{densify, part_of_surface, Growing};
@@ -601,32 +601,14 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             &mesh.triangles[..nf],
             &mesh.vertex_cluster[..nv],
         );
-        // The vertices of boundary edges, when refining towards
-        // `refine_beyond`: a far point whose nearest face touches one is data
-        // the mesh stops short of (a loop kept open that is no border of the
-        // data, or one short of it), whatever its spacing.
+        // The vertices of boundary edges (the output is manifold, its faces
+        // sound), when some point is beyond `refine_beyond`: a far point whose
+        // nearest face touches one is data the mesh stops short of (a loop
+        // kept open that is no border of the data, or one short of it),
+        // whatever its spacing.
         let rim = s.try_alloc_slice::<bool>(nv, false)?;
-        if max_distance.is_finite() && params.max_error <= 0.0 {
-            s.scratch(|t| -> Result<()> {
-                let keys = t.try_alloc_slice::<u64>(3 * nf, 0)?;
-                for (f, tri) in triangles.iter().enumerate() {
-                    for k in 0..3 {
-                        keys[3 * f + k] = key(tri[k], tri[(k + 1) % 3]);
-                    }
-                }
-                keys.sort_unstable();
-                for (i, &k) in keys.iter().enumerate() {
-                    let alone = (i == 0 || keys[i - 1] != k) && keys.get(i + 1) != Some(&k);
-                    if alone {
-                        for v in [(k >> 32) as usize, k as u32 as usize] {
-                            if let Some(r) = rim.get_mut(v) {
-                                *r = true;
-                            }
-                        }
-                    }
-                }
-                Ok(())
-            })?;
+        if params.max_error <= 0.0 && d.iter().any(|&e| e > max_distance) {
+            mark_fixed(s, vertices, triangles, rim)?;
         }
         let at_rim = |i: u32| {
             hints
