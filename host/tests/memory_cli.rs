@@ -2,7 +2,7 @@
 //! work against the bound core computes.
 
 mod common;
-use common::{bin, field, SMALL};
+use common::{bin, field, run_with_report, SMALL};
 
 use std::path::{Path, PathBuf};
 use std::process::Output;
@@ -26,16 +26,13 @@ fn run(command: &str, d: &Path, memory: &str) -> (Output, PathBuf, PathBuf) {
         "mesh.ply"
     });
     let json = d.join("report.json");
-    let r = bin()
-        .args([command, "-q"])
-        .args(SMALL)
-        .arg(format!("--memory={memory}"))
-        .arg("-o")
-        .arg(&out)
-        .arg("--report")
-        .arg(&json)
-        .output()
-        .unwrap();
+    let args = SMALL.map(String::from).into_iter();
+    let r = run_with_report(
+        command,
+        args.chain([format!("--memory={memory}")]),
+        &out,
+        &json,
+    );
     (r, out, json)
 }
 

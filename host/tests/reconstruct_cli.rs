@@ -1,7 +1,7 @@
 //! `vsaqem reconstruct` end to end: formats, reports, errors, determinism.
 
 mod common;
-use common::{bin, SMALL};
+use common::{bin, run_with_report, SMALL};
 
 use std::path::PathBuf;
 
@@ -39,15 +39,7 @@ fn every_output_format_holds_the_reported_mesh() {
     for ext in ["ply", "obj", "off"] {
         let out = d.join(format!("mesh.{ext}"));
         let json = d.join(format!("report_{ext}.json"));
-        let r = bin()
-            .args(["reconstruct", "-q"])
-            .args(SMALL)
-            .arg("-o")
-            .arg(&out)
-            .arg("--report")
-            .arg(&json)
-            .output()
-            .unwrap();
+        let r = run_with_report("reconstruct", SMALL, &out, &json);
         assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
         let (v, t) = vsaqem::io::read_mesh(&out).unwrap();
         let report = std::fs::read_to_string(&json).unwrap();

@@ -1,12 +1,31 @@
 //! Helpers shared by the host's integration tests.
 #![allow(dead_code)] // each test binary uses its own subset
 
+use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::process::{Command, Output};
 
 /// The `vsaqem` binary under test.
 pub fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_vsaqem"))
+}
+
+/// Runs `vsaqem COMMAND -q ARGS -o OUT --report JSON`.
+pub fn run_with_report<S: AsRef<OsStr>>(
+    command: &str,
+    args: impl IntoIterator<Item = S>,
+    out: &Path,
+    json: &Path,
+) -> Output {
+    bin()
+        .args([command, "-q"])
+        .args(args)
+        .arg("-o")
+        .arg(out)
+        .arg("--report")
+        .arg(json)
+        .output()
+        .unwrap()
 }
 
 /// A fresh, empty directory `group/name` under the target's temporary folder.
