@@ -1,4 +1,7 @@
-//! Progress reporting and cancellation: the caller implements [`Progress`].
+//! The caller's hooks into a run: progress reporting, cancellation and threads.
+//! The caller implements [`Progress`].
+
+use crate::parallel::Task;
 
 /// Pipeline stages, in the order they run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
@@ -56,9 +59,22 @@ pub enum Flow {
 /// of work; returning [`Flow::Cancel`] makes the run stop with `Error::Cancelled`
 /// at the next report. `done == total` marks the end of a stage. Units of `done`
 /// are stage-specific (points, or partition passes for clustering).
+///
+/// [`Progress::run`] is how a caller lends core its threads: core cuts each
+/// parallel stage into independent tasks ([`crate::parallel`]) and hands them
+/// here. The default runs them one after another on the calling thread. The
+/// result never depends on how they are run.
 pub trait Progress {
     /// Called at stage boundaries and periodically within a stage.
     fn report(&mut self, stage: Stage, done: u64, total: u64) -> Flow;
+
+    /// Runs every task of `tasks` exactly once, on any threads, in any order,
+    /// and returns when all have finished.
+    fn run(&self, tasks: &mut [&mut dyn Task]) {
+        for t in tasks.iter_mut() {
+            t.run();
+        }
+    }
 }
 
 /// A [`Progress`] that never reports and never cancels.

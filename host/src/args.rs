@@ -172,9 +172,33 @@ pub struct MemoryArgs {
     /// more is allowed but never used.
     #[arg(long, value_name = "BYTES", value_parser = parse_bytes)]
     pub memory: Option<usize>,
+    /// Threads to run on (default: every core). The output is the same for
+    /// every count.
+    #[arg(long, value_name = "N", value_parser = parse_threads)]
+    pub threads: Option<usize>,
 }
 
+fn parse_threads(s: &str) -> Result<usize, String> {
+    match s.parse::<usize>() {
+        Ok(n) if (1..=MAX_THREADS).contains(&n) => Ok(n),
+        _ => Err(format!(
+            "'{s}' is not a thread count from 1 to {MAX_THREADS}"
+        )),
+    }
+}
+
+/// The most threads `--threads` takes: each parallel stage is cut into
+/// `vsaqem_core::parallel::TASKS` tasks, so more could never be busy.
+const MAX_THREADS: usize = vsaqem_core::parallel::TASKS;
+
 impl MemoryArgs {
+    /// `--threads`, or every core the system offers.
+    pub fn threads(&self) -> usize {
+        self.threads.unwrap_or_else(|| {
+            std::thread::available_parallelism().map_or(1, |n| n.get().min(MAX_THREADS))
+        })
+    }
+
     /// The arena size to use when the run needs `needed` bytes at most: the
     /// `--memory` budget, checked against `needed` before any work, or `needed`.
     pub fn arena_size(&self, needed: usize, points: usize) -> Result<usize, String> {

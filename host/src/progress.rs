@@ -1,8 +1,10 @@
-//! Time per stage and a progress bar on stderr (only when stderr is a terminal).
+//! Time per stage and a progress bar on stderr (only when stderr is a terminal),
+//! and the threads core's parallel stages run on.
 
 use std::io::{IsTerminal, Write};
+use std::sync::Mutex;
 use std::time::{Duration, Instant};
-use vsaqem_core::{Flow, Progress, Stage};
+use vsaqem_core::{Flow, Progress, Stage, Task};
 
 /// Records when each core stage starts and ends, and draws a bar.
 pub struct StageClock {
@@ -12,6 +14,7 @@ pub struct StageClock {
     pub times: Vec<(&'static str, Duration)>,
     bar: bool,
     last_draw: Option<Instant>,
+    threads: usize,
 }
 
 impl StageClock {
@@ -23,6 +26,15 @@ impl StageClock {
             times: Vec::new(),
             bar: show_bar && std::io::stderr().is_terminal(),
             last_draw: None,
+            threads: 1,
+        }
+    }
+
+    /// The same clock, running core's parallel stages on `threads` threads.
+    pub fn with_threads(self, threads: usize) -> Self {
+        StageClock {
+            threads: threads.max(1),
+            ..self
         }
     }
 
@@ -122,6 +134,36 @@ impl Progress for StageClock {
         }
         Flow::Continue
     }
+
+    fn run(&self, tasks: &mut [&mut dyn Task]) {
+        run_tasks(self.threads, tasks);
+    }
+}
+
+/// Runs each task once on up to `threads` scoped threads (the calling thread
+/// among them), each taking the next task left until none is.
+pub fn run_tasks(threads: usize, tasks: &mut [&mut dyn Task]) {
+    let threads = threads.min(tasks.len());
+    if threads <= 1 {
+        tasks.iter_mut().for_each(|t| t.run());
+        return;
+    }
+    let queue = Mutex::new(tasks.iter_mut());
+    let work = || loop {
+        // Core never panics, so the lock is never poisoned; if it were, the
+        // queue is still sound to take from.
+        let next = queue.lock().unwrap_or_else(|e| e.into_inner()).next();
+        match next {
+            Some(t) => t.run(),
+            None => break,
+        }
+    };
+    std::thread::scope(|s| {
+        for _ in 1..threads {
+            s.spawn(work);
+        }
+        work();
+    });
 }
 
 /// The stage times of a run, taken once ([`StageClock::timings`]), so the text and

@@ -23,6 +23,7 @@
 use crate::arena::{padded_bytes, Alloc, Arena};
 use crate::error::{Error, Result};
 use crate::math::{dist2, V3};
+use crate::parallel;
 use crate::params::MAX_K;
 use crate::progress::{tick, Progress, Stage};
 use crate::validate::Bounds;
@@ -137,6 +138,9 @@ impl Grid<'_> {
         }
     }
 }
+
+/// Points per wave of neighbour queries (progress is reported between waves).
+const WAVE: usize = 1 << 16;
 
 /// The k best `(d², index)` pairs seen so far, kept sorted (k <= 32).
 struct Best {
@@ -289,37 +293,37 @@ pub fn try_knn_rows_in<'a, 'b, A: Alloc<'b>>(
     let mut linear_scans = 0u32;
     a.scratch(|s| -> Result<()> {
         let grid = build_grid(s, points, k)?;
-        let n_cells = grid.cell_keys.len();
-        let mut done = 0u64;
-        for cell in 0..n_cells {
-            let (a, b) = (
-                grid.cell_start[cell] as usize,
-                grid.cell_start[cell + 1] as usize,
-            );
-            for slot in a..b {
-                let i = grid.order[slot] as usize;
-                let p = grid.sorted[slot];
-                let mut best = Best::new(k);
-                if !ring_search(&grid, p, i as u32, &mut best) {
-                    linear_scans += 1;
-                    best = Best::new(k);
-                    for (t, &q) in grid.sorted.iter().enumerate() {
-                        let j = grid.order[t];
-                        if j as usize != i {
-                            best.offer(dist2(p, q), j);
+        // Waves of rows, each cut into parallel tasks over contiguous points:
+        // progress and cancellation between waves, sums in a fixed order.
+        for (w, rows) in knn.chunks_mut(WAVE * k).enumerate() {
+            let first = w * WAVE;
+            let parts = parallel::rows(&*progress, rows, k, |items, rows: &mut [u32]| {
+                let (mut dist, mut scans) = (0.0f64, 0u32);
+                for (i, row) in (first + items.start..first + items.end).zip(rows.chunks_mut(k)) {
+                    let p = points[i];
+                    let mut best = Best::new(k);
+                    if !ring_search(&grid, p, i as u32, &mut best) {
+                        scans += 1;
+                        best = Best::new(k);
+                        for (t, &q) in grid.sorted.iter().enumerate() {
+                            let j = grid.order[t];
+                            if j as usize != i {
+                                best.offer(dist2(p, q), j);
+                            }
                         }
                     }
+                    row.copy_from_slice(&best.idx[..k]);
+                    for &d2 in &best.d2[..k] {
+                        dist += libm::sqrt(d2 as f64);
+                    }
                 }
-                let row = &mut knn[i * k..(i + 1) * k];
-                row.copy_from_slice(&best.idx[..k]);
-                for &d2 in &best.d2[..k] {
-                    total_dist += libm::sqrt(d2 as f64);
-                }
-                done += 1;
-                if done % 8192 == 0 {
-                    tick(progress, stage, done, n as u64)?;
-                }
+                (dist, scans)
+            });
+            for (dist, scans) in parts {
+                total_dist += dist;
+                linear_scans += scans;
             }
+            tick(progress, stage, (first + rows.len() / k) as u64, n as u64)?;
         }
         Ok(())
     })?;

@@ -36,7 +36,7 @@ pub struct Cmd {
 
 /// Run the command.
 pub fn run(cmd: &Cmd) -> Result<(), String> {
-    let mut clock = StageClock::new(!cmd.quiet);
+    let mut clock = StageClock::new(!cmd.quiet).with_threads(cmd.memory.threads());
     let params = cmd.clean.apply(cmd.cluster.params());
     let Cleaned {
         input,

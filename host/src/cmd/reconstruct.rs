@@ -124,7 +124,7 @@ impl Cmd {
 pub fn run(cmd: &Cmd) -> Result<(), String> {
     let format =
         MeshFormat::from_path(&cmd.output).map_err(|e| format!("{}: {e}", cmd.output.display()))?;
-    let mut clock = StageClock::new(!cmd.quiet);
+    let mut clock = StageClock::new(!cmd.quiet).with_threads(cmd.memory.threads());
     let params = cmd.params();
     let Cleaned {
         input,

@@ -1,0 +1,132 @@
+//! Work that the caller may spread over threads, with results that do not
+//! depend on how it does.
+//!
+//! Core has no threads. A stage whose work splits into independent parts cuts
+//! it into exactly [`TASKS`] tasks, whatever the machine: contiguous ranges of
+//! its items, each task writing only its own part of the output and returning
+//! its own partial result. The caller's [`Progress::run`] runs the tasks on
+//! whatever threads it has (the default runs them one after another); core
+//! then combines the partial results in task order. The cut depends only on
+//! the item count, so every sum is taken in the same order and the output is
+//! bit-identical for every thread count.
+//!
+//! Cost: two arrays of [`TASKS`] small entries on the stack per call; no arena
+//! memory.
+
+use crate::progress::Progress;
+use core::ops::Range;
+
+/// Tasks a parallel stage is cut into, for any input and thread count.
+pub const TASKS: usize = 64;
+
+/// One task of a parallel stage. [`Progress::run`] calls [`Task::run`] of each
+/// task exactly once, from any thread.
+pub trait Task: Send {
+    /// Do the work.
+    fn run(&mut self);
+}
+
+/// The items of task `t` of [`TASKS`] over `n` items: contiguous, in order,
+/// together covering `0..n`.
+pub fn range(n: usize, t: usize) -> Range<usize> {
+    let per = n.div_ceil(TASKS);
+    let start = per.saturating_mul(t).min(n);
+    start..per.saturating_mul(t + 1).min(n)
+}
+
+/// A task over a range of items and the rows of the output that belong to them.
+struct Rows<'a, T, R, F> {
+    f: &'a F,
+    items: Range<usize>,
+    rows: &'a mut [T],
+    result: R,
+}
+
+impl<T: Send, R: Send, F: Fn(Range<usize>, &mut [T]) -> R + Sync> Task for Rows<'_, T, R, F> {
+    fn run(&mut self) {
+        self.result = (self.f)(self.items.clone(), self.rows);
+    }
+}
+
+/// Runs `f(items, rows)` over [`TASKS`] contiguous ranges of the `out.len() /
+/// width` items of `out`, where item `i` owns `out[i * width..(i + 1) * width]`
+/// and `rows` is the part of `out` owned by `items`. Returns each task's
+/// result, in task order. `width` 0 is taken as 1.
+pub fn rows<T, R, F>(hooks: &dyn Progress, out: &mut [T], width: usize, f: F) -> [R; TASKS]
+where
+    T: Send,
+    R: Send + Default,
+    F: Fn(Range<usize>, &mut [T]) -> R + Sync,
+{
+    let width = width.max(1);
+    let n = out.len() / width;
+    let mut rest = out;
+    let mut jobs: [Rows<T, R, F>; TASKS] = core::array::from_fn(|t| {
+        let items = range(n, t);
+        let (rows, tail) = core::mem::take(&mut rest).split_at_mut(items.len() * width);
+        rest = tail;
+        Rows {
+            f: &f,
+            items,
+            rows,
+            result: R::default(),
+        }
+    });
+    let mut tasks = jobs.each_mut().map(|j| j as &mut dyn Task);
+    hooks.run(&mut tasks);
+    jobs.map(|j| j.result)
+}
+
+/// Runs `f(items)` over [`TASKS`] contiguous ranges of `0..n` and returns each
+/// task's result, in task order.
+pub fn ranges<R, F>(hooks: &dyn Progress, n: usize, f: F) -> [R; TASKS]
+where
+    R: Send + Default,
+    F: Fn(Range<usize>) -> R + Sync,
+{
+    let g = |items: Range<usize>, _: &mut [()]| f(items);
+    let mut jobs: [Rows<(), R, _>; TASKS] = core::array::from_fn(|t| Rows {
+        f: &g,
+        items: range(n, t),
+        rows: &mut [],
+        result: R::default(),
+    });
+    let mut tasks = jobs.each_mut().map(|j| j as &mut dyn Task);
+    hooks.run(&mut tasks);
+    jobs.map(|j| j.result)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::progress::Silent;
+
+    #[test]
+    fn ranges_cover_every_item_once_in_order() {
+        for n in [0, 1, 5, 63, 64, 65, 1000, 4097] {
+            let mut next = 0;
+            for t in 0..TASKS {
+                let r = range(n, t);
+                assert_eq!(r.start, next.min(n), "n {n} task {t}");
+                next = r.end.max(next);
+            }
+            assert_eq!(next, n);
+        }
+    }
+
+    #[test]
+    fn rows_hand_each_task_the_rows_of_its_items() {
+        let mut out = [0u32; 3 * 100];
+        let sums = rows(&Silent, &mut out, 3, |items, rows: &mut [u32]| {
+            assert_eq!(rows.len(), 3 * items.len());
+            for (i, row) in items.clone().zip(rows.chunks_mut(3)) {
+                row.fill(i as u32);
+            }
+            items.len()
+        });
+        assert_eq!(sums.iter().sum::<usize>(), 100);
+        for (i, row) in out.chunks(3).enumerate() {
+            assert!(row.iter().all(|&v| v == i as u32));
+        }
+    }
+}
