@@ -13,8 +13,13 @@
 //! Cost: two arrays of [`TASKS`] small entries on the stack per call; no arena
 //! memory.
 
-use crate::progress::Progress;
+use crate::error::Result;
+use crate::progress::{tick, Progress, Stage};
 use core::ops::Range;
+
+/// Items per wave of [`rows_in_waves`]: progress is reported, and a cancel
+/// request honoured, between waves.
+pub const WAVE: usize = 1 << 16;
 
 /// Tasks a parallel stage is cut into, for any input and thread count.
 pub const TASKS: usize = 64;
@@ -75,6 +80,76 @@ where
     let mut tasks = jobs.each_mut().map(|j| j as &mut dyn Task);
     hooks.run(&mut tasks);
     jobs.map(|j| j.result)
+}
+
+/// A task over a range of items and their entries in two outputs.
+struct Pairs<'a, A, B, F> {
+    f: &'a F,
+    items: Range<usize>,
+    a: &'a mut [A],
+    b: &'a mut [B],
+}
+
+impl<A: Send, B: Send, F: Fn(Range<usize>, &mut [A], &mut [B]) + Sync> Task for Pairs<'_, A, B, F> {
+    fn run(&mut self) {
+        (self.f)(self.items.clone(), self.a, self.b);
+    }
+}
+
+/// Runs `f(items, a_part, b_part)` over [`TASKS`] contiguous ranges of the
+/// items of `a` and `b` (one entry each per item; items beyond the shorter are
+/// left out).
+pub fn pairs<A, B, F>(hooks: &dyn Progress, a: &mut [A], b: &mut [B], f: F)
+where
+    A: Send,
+    B: Send,
+    F: Fn(Range<usize>, &mut [A], &mut [B]) + Sync,
+{
+    let n = a.len().min(b.len());
+    let (mut rest_a, mut rest_b) = (&mut a[..n], &mut b[..n]);
+    let mut jobs: [Pairs<A, B, F>; TASKS] = core::array::from_fn(|t| {
+        let items = range(n, t);
+        let (a, tail_a) = core::mem::take(&mut rest_a).split_at_mut(items.len());
+        let (b, tail_b) = core::mem::take(&mut rest_b).split_at_mut(items.len());
+        (rest_a, rest_b) = (tail_a, tail_b);
+        Pairs { f: &f, items, a, b }
+    });
+    let mut tasks = jobs.each_mut().map(|j| j as &mut dyn Task);
+    hooks.run(&mut tasks);
+}
+
+/// [`rows`] over waves of [`WAVE`] items, reporting progress of `stage` after
+/// each: `f` gets the items' global indices, and `combine` each task's result,
+/// in order.
+pub(crate) fn rows_in_waves<T, R, F>(
+    progress: &mut dyn Progress,
+    stage: Stage,
+    out: &mut [T],
+    width: usize,
+    f: F,
+    mut combine: impl FnMut(R),
+) -> Result<()>
+where
+    T: Send,
+    R: Send + Default,
+    F: Fn(Range<usize>, &mut [T]) -> R + Sync,
+{
+    let width = width.max(1);
+    let n = out.len() / width;
+    for (w, wave) in out.chunks_mut(WAVE * width).enumerate() {
+        let first = w * WAVE;
+        let parts = rows(&*progress, wave, width, |items, rows| {
+            f(first + items.start..first + items.end, rows)
+        });
+        parts.into_iter().for_each(&mut combine);
+        tick(
+            progress,
+            stage,
+            (first + wave.len() / width) as u64,
+            n as u64,
+        )?;
+    }
+    Ok(())
 }
 
 /// Runs `f(items)` over [`TASKS`] contiguous ranges of `0..n` and returns each

@@ -174,7 +174,7 @@ pub struct MemoryArgs {
     pub memory: Option<usize>,
     /// Threads to run on (default: every core). The output is the same for
     /// every count.
-    #[arg(long, value_name = "N", value_parser = parse_threads)]
+    #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = parse_threads)]
     pub threads: Option<usize>,
 }
 

@@ -139,9 +139,6 @@ impl Grid<'_> {
     }
 }
 
-/// Points per wave of neighbour queries (progress is reported between waves).
-const WAVE: usize = 1 << 16;
-
 /// The k best `(d², index)` pairs seen so far, kept sorted (k <= 32).
 struct Best {
     d2: [f32; MAX_K],
@@ -293,13 +290,15 @@ pub fn try_knn_rows_in<'a, 'b, A: Alloc<'b>>(
     let mut linear_scans = 0u32;
     a.scratch(|s| -> Result<()> {
         let grid = build_grid(s, points, k)?;
-        // Waves of rows, each cut into parallel tasks over contiguous points:
-        // progress and cancellation between waves, sums in a fixed order.
-        for (w, rows) in knn.chunks_mut(WAVE * k).enumerate() {
-            let first = w * WAVE;
-            let parts = parallel::rows(&*progress, rows, k, |items, rows: &mut [u32]| {
+        // Tasks over contiguous points, in waves: sums in a fixed order.
+        parallel::rows_in_waves(
+            progress,
+            stage,
+            knn,
+            k,
+            |items, rows: &mut [u32]| {
                 let (mut dist, mut scans) = (0.0f64, 0u32);
-                for (i, row) in (first + items.start..first + items.end).zip(rows.chunks_mut(k)) {
+                for (i, row) in items.zip(rows.chunks_mut(k)) {
                     let p = points[i];
                     let mut best = Best::new(k);
                     if !ring_search(&grid, p, i as u32, &mut best) {
@@ -318,14 +317,12 @@ pub fn try_knn_rows_in<'a, 'b, A: Alloc<'b>>(
                     }
                 }
                 (dist, scans)
-            });
-            for (dist, scans) in parts {
+            },
+            |(dist, scans)| {
                 total_dist += dist;
                 linear_scans += scans;
-            }
-            tick(progress, stage, (first + rows.len() / k) as u64, n as u64)?;
-        }
-        Ok(())
+            },
+        )
     })?;
     Ok(KnnRows {
         knn,

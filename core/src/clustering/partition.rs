@@ -31,6 +31,7 @@ use crate::clustering::quadric::{Planes, Quadric};
 use crate::clustering::split;
 use crate::error::Result;
 use crate::math::{dist2, dot, sub, V3};
+use crate::parallel;
 use crate::params::Params;
 use crate::progress::{tick, Progress, Stage};
 use crate::rng::Rng;
@@ -139,7 +140,8 @@ impl<'p, 'a> Ctx<'p, 'a> {
 /// backups for undoing a splitting batch (32 per cluster of the cap). Scratch:
 /// the largest of one step's, each in a scope of its own: the components (4 per
 /// point), the initial seeds (9 per point), a partition (16 per point: cost,
-/// rival, heap), a generator update (116 per cluster), a splitting batch
+/// rival, heap), a generator update (member lists: 4 per point, 8 per
+/// cluster), a splitting batch
 /// ([`split::split_bytes`]) and a refinement ([`ClusterState::refine`], 9 per
 /// cluster, then a partition). Keep in step with the functions named.
 pub fn partition_bytes(n: usize, cap: usize) -> (usize, usize) {
@@ -159,9 +161,9 @@ pub fn partition_bytes(n: usize, cap: usize) -> (usize, usize) {
         padded_bytes::<u64>(n),
     ]);
     let update = sum(&[
-        padded_bytes::<Quadric>(cap),
-        padded_bytes::<[f64; 4]>(cap),
-        padded_bytes::<f32>(cap),
+        padded_bytes::<u32>(cap.saturating_add(1)), // start
+        padded_bytes::<u32>(n),                     // members
+        padded_bytes::<u32>(cap),                   // cursor
     ]);
     let refine = sum(&[padded_bytes::<(f32, u32)>(cap), padded_bytes::<bool>(cap)]);
     let scratch = seeds
@@ -571,6 +573,7 @@ fn passes(
                 st.labels,
                 &mut st.generators[..m],
                 &mut st.seeds[..m],
+                &*progress,
             )
         })?;
         stats.passes += 1;
@@ -831,56 +834,90 @@ fn grow_from(ctx: &Ctx, generators: &[V3], f: &mut Front, q: usize, cost: f32) -
 }
 
 /// Recompute every generator as its cluster's QEM optimum and pick the next seeds.
-/// Returns whether any generator moved.
+/// Returns whether any generator moved. Clusters are independent: parallel
+/// tasks over ranges of clusters, each summing its members in point order (the
+/// sums of a serial pass over the points, bit for bit).
 pub(crate) fn update(
     s: &Scratch,
     ctx: &Ctx,
     labels: &[u32],
     generators: &mut [V3],
     seeds: &mut [u32],
+    hooks: &dyn Progress,
 ) -> Result<bool> {
     let m = generators.len();
-    let quadrics = s.try_alloc_slice::<Quadric>(m, Quadric::default())?;
-    let sums = s.try_alloc_slice::<[f64; 4]>(m, [0.0; 4])?;
-    for (i, &l) in labels.iter().enumerate() {
-        let j = l as usize;
-        if j >= m {
-            continue;
+    let (start, members) = members_in(s, labels, m)?;
+    let (start, members) = (&*start, &*members);
+    let of = |j: usize| &members[start[j] as usize..start[j + 1] as usize];
+    let moved = parallel::rows(hooks, generators, 1, |clusters, out: &mut [V3]| {
+        let mut moved = false;
+        for (j, g_out) in clusters.zip(out.iter_mut()) {
+            let mut quadric = Quadric::default();
+            let mut sum = [0.0f64; 3];
+            for &i in of(j) {
+                ctx.planes
+                    .accumulate_diffused(ctx.nb, i as usize, &mut quadric);
+                let p = ctx.points[i as usize];
+                for a in 0..3 {
+                    sum[a] += p[a] as f64;
+                }
+            }
+            let count = of(j).len() as f64;
+            if count == 0.0 {
+                continue;
+            }
+            let centre = [sum[0] / count, sum[1] / count, sum[2] / count];
+            let (x, _rank) = quadric.minimizer(ctx.lambda_w as f64 * count, centre);
+            let g = [x[0] as f32, x[1] as f32, x[2] as f32];
+            if g.iter().all(|v| v.is_finite()) && g != *g_out {
+                *g_out = g;
+                moved = true;
+            }
         }
-        ctx.planes.accumulate_diffused(ctx.nb, i, &mut quadrics[j]);
-        let p = ctx.points[i];
-        let acc = &mut sums[j];
-        acc[0] += p[0] as f64;
-        acc[1] += p[1] as f64;
-        acc[2] += p[2] as f64;
-        acc[3] += 1.0;
-    }
-    let mut moved = false;
-    for j in 0..m {
-        let count = sums[j][3];
-        if count == 0.0 {
-            continue;
-        }
-        let centre = [sums[j][0] / count, sums[j][1] / count, sums[j][2] / count];
-        let (x, _rank) = quadrics[j].minimizer(ctx.lambda_w as f64 * count, centre);
-        let g = [x[0] as f32, x[1] as f32, x[2] as f32];
-        if g.iter().all(|v| v.is_finite()) && g != generators[j] {
-            generators[j] = g;
-            moved = true;
-        }
-    }
+        moved
+    });
     // Next seeds: the member of least cost to the new generator, ties by index.
-    let best = s.try_alloc_slice::<f32>(m, f32::INFINITY)?;
-    for (i, &l) in labels.iter().enumerate() {
-        let j = l as usize;
-        if j >= m {
-            continue;
+    let generators = &*generators;
+    parallel::rows(hooks, seeds, 1, |clusters, out: &mut [u32]| {
+        for (j, seed) in clusters.zip(out.iter_mut()) {
+            let mut best = f32::INFINITY;
+            for &i in of(j) {
+                let e = ctx.cost(i as usize, generators[j]);
+                if e < best || (best == f32::INFINITY && e == f32::INFINITY) {
+                    best = e;
+                    *seed = i;
+                }
+            }
         }
-        let e = ctx.cost(i, generators[j]);
-        if e < best[j] || (best[j] == f32::INFINITY && e == f32::INFINITY) {
-            best[j] = e;
-            seeds[j] = i as u32;
+    });
+    Ok(moved.contains(&true))
+}
+
+/// The members of each of `m` clusters, ascending, by a counting sort of
+/// `labels` (points labelled `m` or more are in none): cluster `j`'s are
+/// `members[start[j]..start[j + 1]]`. 4 bytes per point and per cluster.
+pub(crate) fn members_in<'s>(
+    s: &'s Scratch,
+    labels: &[u32],
+    m: usize,
+) -> Result<(&'s mut [u32], &'s mut [u32])> {
+    let start = s.try_alloc_slice::<u32>(m + 1, 0)?;
+    for &l in labels {
+        if let Some(c) = start.get_mut(l as usize + 1).filter(|_| (l as usize) < m) {
+            *c += 1;
         }
     }
-    Ok(moved)
+    for j in 0..m {
+        start[j + 1] += start[j];
+    }
+    let members = s.try_alloc_slice::<u32>(start[m] as usize, 0)?;
+    let cursor = s.try_alloc_slice::<u32>(m, 0)?;
+    cursor.copy_from_slice(&start[..m]);
+    for (i, &l) in labels.iter().enumerate() {
+        if let Some(c) = cursor.get_mut(l as usize) {
+            members[*c as usize] = i as u32;
+            *c += 1;
+        }
+    }
+    Ok((start, members))
 }

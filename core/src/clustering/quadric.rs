@@ -15,6 +15,7 @@ use crate::clustering::knn::Neighbours;
 use crate::clustering::normals;
 use crate::error::Result;
 use crate::math::{dist2, Sym3, D3, V3};
+use crate::parallel;
 use crate::progress::{tick, Progress, Stage};
 
 /// `√a · (n, -n·p)` for one point.
@@ -100,30 +101,18 @@ pub fn try_planes_in<'a>(
     let n = points.len();
     tick(progress, Stage::Quadrics, 0, n as u64)?;
     let planes = arena.try_alloc_slice::<Plane>(n, [0.0; 4])?;
-    for i in 0..n {
-        let p = points[i];
-        let row = nb.of(i);
-        let mut mean = 0.0f64;
-        for &j in row {
-            mean += libm::sqrt(dist2(p, points[j as usize]) as f64);
-        }
-        mean /= row.len().max(1) as f64;
-        let (nrm, variation) = normals::normal_of(points, given_normals, nb, i);
-        let area = mean * mean / 2.0 * confidence(variation);
-        let s = libm::sqrt(area);
-        let d = -(nrm[0] as f64 * p[0] as f64
-            + nrm[1] as f64 * p[1] as f64
-            + nrm[2] as f64 * p[2] as f64);
-        planes[i] = [
-            (s * nrm[0] as f64) as f32,
-            (s * nrm[1] as f64) as f32,
-            (s * nrm[2] as f64) as f32,
-            (s * d) as f32,
-        ];
-        if i % 8192 == 8191 {
-            tick(progress, Stage::Quadrics, i as u64, n as u64)?;
-        }
-    }
+    parallel::rows_in_waves(
+        progress,
+        Stage::Quadrics,
+        planes,
+        1,
+        |items, out: &mut [Plane]| {
+            for (i, plane) in items.zip(out.iter_mut()) {
+                *plane = plane_of(points, given_normals, nb, i);
+            }
+        },
+        |()| {},
+    )?;
     let planes: &'a [Plane] = planes;
     let mut total = 0.0f64;
     let view = Planes {
@@ -141,6 +130,29 @@ pub fn try_planes_in<'a>(
         mean_weight: (total / n.max(1) as f64) as f32,
         noise,
     })
+}
+
+/// The plane factor of point `i`: its normal, and its support area (the
+/// squared mean distance to its neighbours, halved) scaled by [`confidence`].
+fn plane_of(points: &[V3], given_normals: Option<&[V3]>, nb: &Neighbours, i: usize) -> Plane {
+    let p = points[i];
+    let row = nb.of(i);
+    let mut mean = 0.0f64;
+    for &j in row {
+        mean += libm::sqrt(dist2(p, points[j as usize]) as f64);
+    }
+    mean /= row.len().max(1) as f64;
+    let (nrm, variation) = normals::normal_of(points, given_normals, nb, i);
+    let area = mean * mean / 2.0 * confidence(variation);
+    let s = libm::sqrt(area);
+    let d =
+        -(nrm[0] as f64 * p[0] as f64 + nrm[1] as f64 * p[1] as f64 + nrm[2] as f64 * p[2] as f64);
+    [
+        (s * nrm[0] as f64) as f32,
+        (s * nrm[1] as f64) as f32,
+        (s * nrm[2] as f64) as f32,
+        (s * d) as f32,
+    ]
 }
 
 /// Octaves below and above the spacing that [`noise_floor`]'s histogram spans.

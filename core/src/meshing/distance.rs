@@ -13,6 +13,8 @@ use crate::arena::Alloc;
 use crate::error::Result;
 use crate::math::V3;
 use crate::meshing::face_grid::FaceGrid;
+use crate::parallel;
+use crate::progress::Progress;
 
 /// Distances from the input points to the mesh, as fractions of the bounding-box
 /// diagonal of the points.
@@ -42,19 +44,34 @@ pub fn try_point_distances_in<'b, A: Alloc<'b>>(
     faces: &[[u32; 3]],
     out: &mut [f32],
     hints: Option<&mut [u32]>,
+    hooks: &dyn Progress,
 ) -> Result<()> {
     alloc.scratch(|s| {
         let grid = FaceGrid::try_new_in(s, vertices, faces)?;
+        let n = points.len().min(out.len());
         // Without hints (or the wrong number), every search starts afresh.
-        let mut hints = hints.filter(|h| h.len() == points.len());
-        for (i, (p, d)) in points.iter().zip(out.iter_mut()).enumerate() {
-            let h = hints.as_deref_mut().and_then(|h| h.get_mut(i));
-            let hint = h.as_deref().copied().filter(|&f| f != u32::MAX);
-            let near = grid.nearest_from(*p, hint);
-            if let Some(h) = h {
-                *h = near.map_or(u32::MAX, |(f, _)| f);
-            }
-            *d = near.map_or(f32::INFINITY, |(_, d2)| libm::sqrtf(d2));
+        let mut none = [];
+        let (hints, given) = match hints.filter(|h| h.len() == points.len()) {
+            Some(h) => (&mut h[..n], true),
+            None => (&mut none[..], false),
+        };
+        let search = |i: usize, hint: Option<u32>| {
+            let near = grid.nearest_from(points[i], hint.filter(|&f| f != u32::MAX));
+            let d = near.map_or(f32::INFINITY, |(_, d2)| libm::sqrtf(d2));
+            (near.map_or(u32::MAX, |(f, _)| f), d)
+        };
+        if given {
+            parallel::pairs(hooks, &mut out[..n], hints, |items, d, h| {
+                for ((i, d), h) in items.zip(d.iter_mut()).zip(h.iter_mut()) {
+                    (*h, *d) = search(i, Some(*h));
+                }
+            });
+        } else {
+            parallel::rows(hooks, &mut out[..n], 1, |items, d: &mut [f32]| {
+                for (i, d) in items.zip(d.iter_mut()) {
+                    *d = search(i, None).1;
+                }
+            });
         }
         Ok(())
     })
@@ -99,6 +116,7 @@ pub fn summarise(distances: &mut [f32], diag: f32) -> MeshDistance {
 mod tests {
     use super::*;
     use crate::arena::Arena;
+    use crate::progress::Silent;
     use std::mem::MaybeUninit;
     use std::vec;
 
@@ -117,7 +135,7 @@ mod tests {
         let mut buf = vec![MaybeUninit::uninit(); 1 << 16];
         let arena = Arena::new(&mut buf);
         let mut d = vec![0.0f32; pts.len()];
-        try_point_distances_in(&arena, &pts, &v, &f, &mut d, None).unwrap();
+        try_point_distances_in(&arena, &pts, &v, &f, &mut d, None, &Silent).unwrap();
         assert_eq!(d[37], 0.37);
         assert_eq!(d[100], 2.0);
         assert_eq!(arena.used(), 0, "the grid is scratch");
@@ -135,7 +153,16 @@ mod tests {
         let mut buf = vec![MaybeUninit::uninit(); 1 << 12];
         let arena = Arena::new(&mut buf);
         let mut d = [0.0f32; 2];
-        try_point_distances_in(&arena, &[[0.0; 3], [1.0; 3]], &[], &[], &mut d, None).unwrap();
+        try_point_distances_in(
+            &arena,
+            &[[0.0; 3], [1.0; 3]],
+            &[],
+            &[],
+            &mut d,
+            None,
+            &Silent,
+        )
+        .unwrap();
         assert_eq!(d, [f32::INFINITY; 2]);
         assert_eq!(summarise(&mut [], 1.0), MeshDistance::default());
     }

@@ -49,6 +49,8 @@ use crate::error::Result;
 use crate::math::{closest_on_triangle, dist2, dot, is_finite3, norm, sub, V3};
 use crate::meshing::face_grid::FaceGrid;
 use crate::meshing::output::{face_normal, key};
+use crate::parallel;
+use crate::progress::Progress;
 
 /// Weight `λ` of the anchors against the data, dimensionless (see the module
 /// docs): smaller follows the data closer, larger keeps the vertices nearer
@@ -121,6 +123,7 @@ pub fn try_fit_vertices_in<'b, A: Alloc<'b>>(
     rounds: u32,
     lambda: f32,
     hints: Option<&mut [u32]>,
+    hooks: &dyn Progress,
 ) -> Result<FitStats> {
     let mut stats = FitStats::default();
     let (nv, nf) = (vertices.len(), triangles.len());
@@ -190,11 +193,18 @@ pub fn try_fit_vertices_in<'b, A: Alloc<'b>>(
             off.fill([0.0; 3]);
             s.scratch(|t| -> Result<()> {
                 let grid = FaceGrid::try_new_in(t, &*vertices, triangles)?;
-                for (&p, h) in points.iter().zip(hints.iter_mut()) {
-                    let Some((f, _)) = grid.nearest_from(p, (*h != u32::MAX).then_some(*h)) else {
+                // The searches in parallel (each point's nearest face into its
+                // hint), then the sums in point order.
+                parallel::rows(hooks, &mut hints[..], 1, |items, h: &mut [u32]| {
+                    for (p, h) in points[items].iter().zip(h.iter_mut()) {
+                        let hint = (*h != u32::MAX).then_some(*h);
+                        *h = grid.nearest_from(*p, hint).map_or(u32::MAX, |(f, _)| f);
+                    }
+                });
+                for (&p, &f) in points.iter().zip(hints.iter()) {
+                    if f == u32::MAX {
                         continue;
-                    };
-                    *h = f;
+                    }
                     let face = triangles[f as usize];
                     let Some(c) = corners_of(vertices, face) else {
                         continue;
@@ -377,6 +387,7 @@ pub(crate) fn mark_fixed<'b, A: Alloc<'b>>(
 mod tests {
     use super::*;
     use crate::arena::Arena;
+    use crate::progress::Silent;
     use crate::rng::Rng;
     use std::mem::MaybeUninit;
     use std::vec;
@@ -415,7 +426,8 @@ mod tests {
     fn fit(points: &[V3], v: &mut [V3], f: &[[u32; 3]], rounds: u32, lambda: f32) -> FitStats {
         let mut buf = vec![MaybeUninit::uninit(); 1 << 20];
         let arena = Arena::new(&mut buf);
-        let stats = try_fit_vertices_in(&arena, points, v, f, rounds, lambda, None).unwrap();
+        let stats =
+            try_fit_vertices_in(&arena, points, v, f, rounds, lambda, None, &Silent).unwrap();
         assert_eq!(arena.used(), 0, "fitting leaves nothing in the arena");
         stats
     }

@@ -44,6 +44,7 @@ use crate::meshing::candidates::{Candidates, Members};
 use crate::meshing::distance::{summarise, try_point_distances_in, MeshDistance};
 use crate::meshing::fit::{mark_fixed, try_fit_vertices_in, FitStats, LAMBDA};
 use crate::params::Params;
+use crate::progress::Progress;
 
 use densify::{densify, part_of_surface, Growing};
 use holes::{fill_holes, Filled};
@@ -225,6 +226,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
     diag: f32,
     output: Output,
     uncovered: &mut [u32],
+    hooks: &dyn Progress,
 ) -> Result<(Option<Mesh<'o>>, MeshStats)> {
     let (max_hole, fit_rounds) = (params.max_hole, params.fit_rounds);
     let m = generators.len();
@@ -555,6 +557,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
                 &mesh.triangles[..nf],
                 d,
                 Some(&mut *hints),
+                hooks,
             )?;
             let p99 = s.scratch(|t| -> Result<f32> {
                 Ok(summarise(t.try_alloc_copy::<f32>(d)?, 1.0).p99)
@@ -579,6 +582,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             fit_rounds,
             LAMBDA,
             Some(&mut *hints),
+            hooks,
         )?;
         // Then what repair could not resolve is counted on the final
         // positions (again only when a vertex went back: else it is the same).
@@ -594,6 +598,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             &mesh.triangles[..nf],
             d,
             Some(&mut *hints),
+            hooks,
         )?;
         let (nv, nf) = (mesh.nv, mesh.nf);
         let (vertices, triangles, vertex_cluster) = (
