@@ -114,7 +114,9 @@ fn corners_of(vertices: &[V3], face: [u32; 3]) -> Option<[V3; 3]> {
 /// NaN `lambda`, no points or no faces move nothing. `hints`, when given
 /// (as long as `points`), holds a face near each point (`u32::MAX`: none),
 /// where the first round's search starts, and on return each point's nearest
-/// face in the last round (unchanged when nothing moved).
+/// face in the last round (unchanged when nothing moved). The nearest-face
+/// searches run as parallel tasks through `hooks` ([`crate::parallel`]).
+#[allow(clippy::too_many_arguments)]
 pub fn try_fit_vertices_in<'b, A: Alloc<'b>>(
     scratch: &A,
     points: &[V3],
