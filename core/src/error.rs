@@ -52,6 +52,15 @@ pub enum Error {
         /// Points given.
         points: usize,
     },
+    /// A k-NN table given to core ([`crate::reconstruct_with_rows`]) is not one
+    /// for these points: the wrong length (`row` is then the rows it holds and
+    /// `entry` its length), or an entry out of range or equal to its row.
+    BadNeighbourTable {
+        /// The row at fault.
+        row: usize,
+        /// The entry at fault.
+        entry: u64,
+    },
     /// A parameter is outside its documented range.
     BadParameter {
         /// Field of `Params`.
@@ -149,6 +158,10 @@ impl fmt::Display for Error {
                 f,
                 "k = {k} neighbours is not possible with {points} points (need 1 <= k <= {} and k < points)",
                 crate::params::MAX_K
+            ),
+            Error::BadNeighbourTable { row, entry } => write!(
+                f,
+                "the neighbour table given is not one for these points (row {row}, entry {entry})"
             ),
             Error::BadParameter { name, value } => write!(f, "parameter {name} = {value} is out of range"),
             Error::NormalsLength { points, normals } => {

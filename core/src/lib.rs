@@ -117,7 +117,7 @@ pub use meshing::select::SelectStats;
 pub use meshing::MeshingStats;
 pub use parallel::Task;
 pub use params::{Params, MAX_ERROR_ROUNDS, MAX_K};
-pub use prepass::clean::{clean, CleanStats};
+pub use prepass::clean::{clean, clean_with_rows, CleanStats};
 pub use prepass::smooth::{smooth, smooth_bytes};
 pub use progress::{Flow, Progress, Silent, Stage};
 pub use validate::Bounds;
@@ -136,7 +136,44 @@ pub fn cluster<'a>(
     params: &Params,
     progress: &mut dyn Progress,
 ) -> Result<Clustered<'a>> {
-    Ok(clustering::try_clustering_in(arena, points, normals, params, progress)?.close(arena))
+    Ok(clustering::try_clustering_in(arena, points, normals, None, params, progress)?.close(arena))
+}
+
+/// [`cluster`] on the k-NN table the caller already has for these points, when
+/// given (see [`reconstruct_with_rows`]).
+pub fn cluster_with_rows<'a>(
+    arena: &'a Arena,
+    points: &[V3],
+    normals: Option<&[V3]>,
+    rows: Option<&Rows>,
+    params: &Params,
+    progress: &mut dyn Progress,
+) -> Result<Clustered<'a>> {
+    let known = rows.map(Rows::known);
+    Ok(
+        clustering::try_clustering_in(arena, points, normals, known, params, progress)?
+            .close(arena),
+    )
+}
+
+/// A k-NN table of a set of points, as [`clean_with_rows`] writes it: row `i`
+/// (`knn[i * k..(i + 1) * k]`, `k` = [`Params::k`]) lists the `k` nearest
+/// other points of `i`, nearest first, ties by index.
+#[derive(Clone, Copy, Debug)]
+pub struct Rows<'r> {
+    /// The table.
+    pub knn: &'r [u32],
+    /// Queries of it that fell back to a linear scan (for the statistics).
+    pub linear_scans: u32,
+}
+
+impl Rows<'_> {
+    fn known(&self) -> clustering::KnownRows<'_> {
+        clustering::KnownRows {
+            knn: self.knn,
+            linear_scans: self.linear_scans,
+        }
+    }
 }
 
 /// A reconstruction: the mesh and how it was made.
@@ -166,13 +203,49 @@ pub fn reconstruct<'a>(
     params: &Params,
     progress: &mut dyn Progress,
 ) -> Result<Reconstruction<'a>> {
+    reconstruct_in(arena, points, normals, None, params, progress)
+}
+
+/// [`reconstruct`] on the k-NN table the caller already has for these points,
+/// when given (from [`clean_with_rows`], when cleaning kept every point): the
+/// neighbour search is not run again; the result is the same as [`reconstruct`]'s. A
+/// table of the wrong length or with an entry out of range or equal to its row
+/// fails with [`Error::BadNeighbourTable`]; one that lists other neighbours
+/// than the nearest gives another (valid) mesh.
+pub fn reconstruct_with_rows<'a>(
+    arena: &'a Arena,
+    points: &[V3],
+    normals: Option<&[V3]>,
+    rows: Option<&Rows>,
+    params: &Params,
+    progress: &mut dyn Progress,
+) -> Result<Reconstruction<'a>> {
+    reconstruct_in(
+        arena,
+        points,
+        normals,
+        rows.map(Rows::known),
+        params,
+        progress,
+    )
+}
+
+fn reconstruct_in<'a>(
+    arena: &'a Arena,
+    points: &[V3],
+    normals: Option<&[V3]>,
+    known: Option<clustering::KnownRows>,
+    params: &Params,
+    progress: &mut dyn Progress,
+) -> Result<Reconstruction<'a>> {
     // Meshing may use what the budget leaves (at least its capacity, more where
     // the earlier stages used less than their worst case), never more: so the
     // budget holds, and the outcome does not depend on the buffer's size.
     let end = arena
         .used()
         .saturating_add(budget::reconstruct_bound(points.len(), params));
-    let mut clustering = clustering::try_clustering_in(arena, points, normals, params, progress)?;
+    let mut clustering =
+        clustering::try_clustering_in(arena, points, normals, known, params, progress)?;
     // Points farther than this from the mesh call for a refinement round.
     let max_distance = params.refine_distance(clustering.bounds.diag);
     // Clusters a round leaves without a face, for refinement: one buffer for all

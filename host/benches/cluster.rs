@@ -10,7 +10,7 @@ use vsaqem::args::arena_buffer;
 use vsaqem::input::prepare;
 use vsaqem::io::read_cloud;
 use vsaqem::progress::StageClock;
-use vsaqem_core::{cluster, cluster_bytes, Arena, Params};
+use vsaqem_core::{cluster_bytes, cluster_with_rows, Arena, Params};
 
 fn main() {
     let args: Vec<String> = std::env::args()
@@ -49,7 +49,7 @@ fn main() {
             let mut buf = arena_buffer(cluster_bytes(n, &params));
             let arena = Arena::new(&mut buf);
             let mut clock = StageClock::new(false);
-            let out = match input.run_core(cluster, &arena, &params, &mut clock) {
+            let out = match input.run_core(cluster_with_rows, None, &arena, &params, &mut clock) {
                 Ok(o) => o,
                 Err(e) => {
                     println!("| {name} | failed: {e} |");

@@ -15,7 +15,7 @@ use vsaqem::clean::clean_input;
 use vsaqem::input::prepare;
 use vsaqem::io::read_cloud;
 use vsaqem::progress::StageClock;
-use vsaqem_core::{arena_bytes, reconstruct, Arena, Params};
+use vsaqem_core::{arena_bytes, reconstruct_with_rows, Arena, Params};
 
 fn main() {
     let mut counts: Vec<u32> = std::env::args()
@@ -43,7 +43,7 @@ fn main() {
         let mut buf = arena_buffer(vsaqem_core::clean_bytes(all.len(), &Params::default()));
         let mut clock = StageClock::new(false);
         let input = match clean_input(read, &Params::default(), &mut buf, &mut clock) {
-            Ok((input, _)) => input,
+            Ok((input, _, _)) => input,
             Err(e) => {
                 println!("| {name} | failed: {e} |");
                 continue;
@@ -60,7 +60,13 @@ fn main() {
                 let mut buf = arena_buffer(arena_bytes(input.points.len(), &params));
                 let arena = Arena::new(&mut buf);
                 let mut clock = StageClock::new(false);
-                let out = match input.run_core(reconstruct, &arena, &params, &mut clock) {
+                let out = match input.run_core(
+                    reconstruct_with_rows,
+                    None,
+                    &arena,
+                    &params,
+                    &mut clock,
+                ) {
                     Ok(o) => o,
                     Err(e) => {
                         println!("| {name} | {clusters} | failed: {e} |");

@@ -6,7 +6,7 @@ use crate::args::{arena_buffer, read_input, InputArgs, MemoryArgs};
 use crate::input::Prepared;
 use crate::progress::StageClock;
 use std::mem::MaybeUninit;
-use vsaqem_core::{Arena, CleanStats, Error, Params};
+use vsaqem_core::{Arena, CleanStats, Error, Params, Rows};
 
 /// The points of a run, read and cleaned, and the arena buffer core runs in.
 pub struct Cleaned {
@@ -19,6 +19,26 @@ pub struct Cleaned {
     /// The arena buffer: the `--memory` budget, or what the run and the pre-pass
     /// can need.
     pub buf: Vec<MaybeUninit<u8>>,
+    /// The k-NN table cleaning searched, when it holds for `input` as it is
+    /// (every point kept, none smoothed): the run takes it instead of
+    /// searching again.
+    pub rows: Option<KnnTable>,
+}
+
+/// A k-NN table the host keeps between cleaning and the run.
+pub struct KnnTable {
+    knn: Vec<u32>,
+    linear_scans: u32,
+}
+
+impl KnnTable {
+    /// The table as core takes it.
+    pub fn rows(&self) -> Rows<'_> {
+        Rows {
+            knn: &self.knn,
+            linear_scans: self.linear_scans,
+        }
+    }
 }
 
 /// Read the input, size the arena for a command that needs `run_bytes(points,
@@ -35,13 +55,14 @@ pub fn read_and_clean(
     let points_read = input.points.len();
     let needed = with_clean(run_bytes(points_read, params), points_read, params);
     let mut buf = arena_buffer(memory.arena_size(needed, points_read)?);
-    let (input, stats) =
+    let (input, stats, rows) =
         clean_input(input, params, &mut buf, clock).inspect_err(|_| clock.finish())?;
     Ok(Cleaned {
         input,
         points_read,
         stats,
         buf,
+        rows,
     })
 }
 
@@ -71,17 +92,19 @@ pub fn clean_input(
     params: &Params,
     buf: &mut [MaybeUninit<u8>],
     clock: &mut StageClock,
-) -> Result<(Prepared, Option<CleanStats>), String> {
+) -> Result<(Prepared, Option<CleanStats>, Option<KnnTable>), String> {
     let budget = buf.len();
-    let (mut input, stats) = filter_input(input, params, budget, clock)?;
+    let (mut input, stats, mut rows) = filter_input(input, params, budget, clock)?;
     if params.smooth_rounds > 0 {
+        // The points move: their neighbours are searched again.
+        rows = None;
         let need = vsaqem_core::smooth_bytes(input.points.len(), params);
         let mut own = arena_buffer(need.min(budget));
         let arena = Arena::new(&mut own);
         vsaqem_core::smooth(&arena, &mut input.points, params, clock)
             .map_err(|e| format!("{}: smoothing: {e}", input.name))?;
     }
-    Ok((input, stats))
+    Ok((input, stats, rows))
 }
 
 /// The cleaning filters of [`clean_input`].
@@ -90,16 +113,33 @@ fn filter_input(
     params: &Params,
     budget: usize,
     clock: &mut StageClock,
-) -> Result<(Prepared, Option<CleanStats>), String> {
+) -> Result<(Prepared, Option<CleanStats>, Option<KnnTable>), String> {
     if !params.cleans() {
-        return Ok((input, None));
+        return Ok((input, None, None));
     }
     let need = vsaqem_core::clean_bytes(input.points.len(), params);
     let mut own = arena_buffer(need.min(budget));
     let arena = Arena::new(&mut own);
     let mut keep = vec![true; input.points.len()];
-    let stats = match vsaqem_core::clean(&arena, &input.points, params, &mut keep, clock) {
-        Ok(s) => s,
+    // The table is the run's own k-NN table when every point stays; it is
+    // allocated outside the arena, as the input is (4 k bytes per point).
+    let mut knn = vec![0u32; input.points.len().saturating_mul(params.k)];
+    let cleaned = vsaqem_core::clean_with_rows(
+        &arena,
+        &input.points,
+        params,
+        &mut keep,
+        Some(&mut knn),
+        clock,
+    );
+    let stats = match cleaned {
+        Ok((s, scans)) => {
+            if s.kept == s.points {
+                let rows = scans.map(|linear_scans| KnnTable { knn, linear_scans });
+                return Ok((input, Some(s), rows));
+            }
+            s
+        }
         Err(e @ Error::TooFewKept { .. }) => {
             return Err(format!(
                 "{}: {e} (--outliers {}, --min-fragment {})",
@@ -108,8 +148,5 @@ fn filter_input(
         }
         Err(e) => return Err(format!("{}: {e}", input.name)),
     };
-    if stats.kept == stats.points {
-        return Ok((input, Some(stats)));
-    }
-    Ok((input.keep(&keep), Some(stats)))
+    Ok((input.keep(&keep), Some(stats), None))
 }

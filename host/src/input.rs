@@ -6,12 +6,19 @@ use crate::progress::StageClock;
 use std::path::Path;
 use vsaqem_core::rng::Rng;
 use vsaqem_core::sample::{fill, gaussian, Shape};
-use vsaqem_core::{Arena, Params, Progress, V3};
+use vsaqem_core::{Arena, Params, Progress, Rows, V3};
 
-/// A core entry point (`vsaqem_core::cluster`, `vsaqem_core::reconstruct`) whose
-/// results borrow an arena of lifetime `'a`.
-pub type CoreRun<'a, 'buf, T> =
-    fn(&'a Arena<'buf>, &[V3], Option<&[V3]>, &Params, &mut dyn Progress) -> vsaqem_core::Result<T>;
+/// A core entry point (`vsaqem_core::cluster_with_rows`,
+/// `vsaqem_core::reconstruct_with_rows`) whose results borrow an arena of
+/// lifetime `'a`.
+pub type CoreRun<'a, 'buf, T> = fn(
+    &'a Arena<'buf>,
+    &[V3],
+    Option<&[V3]>,
+    Option<&Rows>,
+    &Params,
+    &mut dyn Progress,
+) -> vsaqem_core::Result<T>;
 
 /// Points ready for core, with the frame that maps results back.
 pub struct Prepared {
@@ -108,11 +115,19 @@ impl Prepared {
     pub fn run_core<'a, 'buf, T>(
         &self,
         core: CoreRun<'a, 'buf, T>,
+        rows: Option<&Rows>,
         arena: &'a Arena<'buf>,
         params: &Params,
         clock: &mut StageClock,
     ) -> vsaqem_core::Result<T> {
-        let out = core(arena, &self.points, self.normals.as_deref(), params, clock);
+        let out = core(
+            arena,
+            &self.points,
+            self.normals.as_deref(),
+            rows,
+            params,
+            clock,
+        );
         clock.finish();
         out
     }

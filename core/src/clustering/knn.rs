@@ -286,18 +286,16 @@ pub fn try_knn_rows_in<'a, 'b, A: Alloc<'b>>(
     }
     tick(progress, stage, 0, n as u64)?;
     let knn = a.try_alloc_slice::<u32>(n * k, 0)?;
-    let mut total_dist = 0.0f64;
     let mut linear_scans = 0u32;
     a.scratch(|s| -> Result<()> {
         let grid = build_grid(s, points, k)?;
-        // Tasks over contiguous points, in waves: sums in a fixed order.
         parallel::rows_in_waves(
             progress,
             stage,
             knn,
             k,
             |items, rows: &mut [u32]| {
-                let (mut dist, mut scans) = (0.0f64, 0u32);
+                let mut scans = 0u32;
                 for (i, row) in items.zip(rows.chunks_mut(k)) {
                     let p = points[i];
                     let mut best = Best::new(k);
@@ -312,21 +310,90 @@ pub fn try_knn_rows_in<'a, 'b, A: Alloc<'b>>(
                         }
                     }
                     row.copy_from_slice(&best.idx[..k]);
-                    for &d2 in &best.d2[..k] {
-                        dist += libm::sqrt(d2 as f64);
-                    }
                 }
-                (dist, scans)
+                scans
             },
-            |(dist, scans)| {
-                total_dist += dist;
-                linear_scans += scans;
-            },
+            |scans| linear_scans += scans,
         )
     })?;
+    let spacing = spacing(points, knn, k, &*progress);
     Ok(KnnRows {
         knn,
-        spacing: (total_dist / (n * k) as f64) as f32,
+        spacing,
+        linear_scans,
+    })
+}
+
+/// Mean distance from a point to its `k` nearest (rows of `knn`, which must
+/// index `points`), summed in a fixed order: per task of each wave of
+/// [`parallel::WAVE`] points, each row nearest first. O(n k).
+pub fn spacing(points: &[V3], knn: &[u32], k: usize, hooks: &dyn Progress) -> f32 {
+    let k = k.max(1);
+    let n = knn.len() / k;
+    let mut total = 0.0f64;
+    for (w, wave) in knn.chunks(parallel::WAVE * k).enumerate() {
+        let first = w * parallel::WAVE;
+        let parts = parallel::ranges(hooks, wave.len() / k, |items| {
+            let mut sum = 0.0f64;
+            for i in items {
+                let p = points.get(first + i).copied().unwrap_or_default();
+                for &j in &wave[i * k..(i + 1) * k] {
+                    let q = points.get(j as usize).copied().unwrap_or(p);
+                    sum += libm::sqrt(dist2(p, q) as f64);
+                }
+            }
+            sum
+        });
+        for part in parts {
+            total += part;
+        }
+    }
+    (total / n.saturating_mul(k).max(1) as f64) as f32
+}
+
+/// The neighbour graph of `points` from a k-NN table the caller already has
+/// (`knn`, row `i` the `k` nearest other points of `i`, nearest first, ties
+/// by index: what [`crate::clean_with_rows`] writes), copied into `arena`
+/// with its reverse edges: [`try_neighbours_in`] without the search. A table
+/// of the wrong length, or with an entry that is out of range or the row's own
+/// point, fails with [`Error::BadNeighbourTable`].
+pub fn try_neighbours_from_in<'a>(
+    arena: &'a Arena,
+    points: &[V3],
+    knn: &[u32],
+    k: usize,
+    linear_scans: u32,
+    progress: &mut dyn Progress,
+) -> Result<Neighbours<'a>> {
+    let n = points.len();
+    if k == 0 || k > MAX_K || k >= n {
+        return Err(Error::BadNeighbours { k, points: n });
+    }
+    if knn.len() != n * k {
+        return Err(Error::BadNeighbourTable {
+            row: knn.len() / k,
+            entry: knn.len() as u64,
+        });
+    }
+    for (i, row) in knn.chunks_exact(k).enumerate() {
+        if let Some(&j) = row.iter().find(|&&j| j as usize >= n || j as usize == i) {
+            return Err(Error::BadNeighbourTable {
+                row: i,
+                entry: j as u64,
+            });
+        }
+    }
+    tick(progress, Stage::Neighbours, 0, n as u64)?;
+    let table = arena.try_alloc_copy::<u32>(knn)?;
+    let knn: &'a [u32] = table;
+    let (rev_start, rev) = reverse_edges_in(arena, knn, k)?;
+    tick(progress, Stage::Neighbours, n as u64, n as u64)?;
+    Ok(Neighbours {
+        k,
+        knn,
+        rev_start,
+        rev,
+        spacing: spacing(points, knn, k, &*progress),
         linear_scans,
     })
 }

@@ -104,18 +104,33 @@ impl<'a> Clustering<'a> {
     }
 }
 
-/// Checks the input, then runs stages 1-5 in `arena`.
+/// A k-NN table the caller already has for the points, and how many of its
+/// queries fell back to a linear scan: stage 1 then only copies it.
+#[derive(Clone, Copy)]
+pub(crate) struct KnownRows<'r> {
+    pub knn: &'r [u32],
+    pub linear_scans: u32,
+}
+
+/// Checks the input, then runs stages 1-5 in `arena` (stage 1 from `known`
+/// rows when given).
 pub(crate) fn try_clustering_in<'a>(
     arena: &'a Arena,
     points: &[V3],
     normals: Option<&[V3]>,
+    known: Option<KnownRows>,
     params: &Params,
     progress: &mut dyn Progress,
 ) -> Result<Clustering<'a>> {
     tick(progress, Stage::Validate, 0, 1)?;
     let bounds = validate::check(points, normals, params)?;
     tick(progress, Stage::Validate, 1, 1)?;
-    let neighbours = knn::try_neighbours_in(arena, points, params.k, progress)?;
+    let neighbours = match known {
+        Some(r) => {
+            knn::try_neighbours_from_in(arena, points, r.knn, params.k, r.linear_scans, progress)?
+        }
+        None => knn::try_neighbours_in(arena, points, params.k, progress)?,
+    };
     let peak_neighbours = arena.peak();
     let planes = quadric::try_planes_in(arena, points, normals, &neighbours, progress)?;
     let peak_quadrics = arena.peak();

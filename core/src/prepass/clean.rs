@@ -90,12 +90,38 @@ pub fn clean(
     keep: &mut [bool],
     progress: &mut dyn Progress,
 ) -> Result<CleanStats> {
+    clean_with_rows(arena, points, params, keep, None, progress).map(|(stats, _)| stats)
+}
+
+/// [`clean`], also writing the k-NN table it searched into `rows` (when given,
+/// `points.len() * params.k` long, else [`Error::BadNeighbourTable`]) and returning
+/// how many of its queries fell back to a linear scan: when every point is
+/// kept, [`reconstruct_with_rows`](crate::reconstruct_with_rows) on the same
+/// points takes it instead of searching again. With both filters off nothing
+/// is searched and `rows` is left as it was (the count is then `None`).
+pub fn clean_with_rows(
+    arena: &Arena,
+    points: &[V3],
+    params: &Params,
+    keep: &mut [bool],
+    rows_out: Option<&mut [u32]>,
+    progress: &mut dyn Progress,
+) -> Result<(CleanStats, Option<u32>)> {
     validate::check(points, None, params)?;
     let n = points.len();
     if keep.len() != n {
         return Err(Error::KeepLength {
             points: n,
             keep: keep.len(),
+        });
+    }
+    if let Some(r) = rows_out
+        .as_deref()
+        .filter(|r| r.len() != n.saturating_mul(params.k))
+    {
+        return Err(Error::BadNeighbourTable {
+            row: r.len() / params.k.max(1),
+            entry: r.len() as u64,
         });
     }
     keep.fill(true);
@@ -106,13 +132,18 @@ pub fn clean(
         ..CleanStats::default()
     };
     if !params.cleans() {
-        return Ok(stats);
+        return Ok((stats, None));
     }
     let k = params.k;
+    let mut scans = 0;
     arena.scratch(|s| -> Result<()> {
         let rows = knn::try_knn_rows_in(s, points, k, Stage::Clean, progress)?;
         stats.spacing = rows.spacing;
+        scans = rows.linear_scans;
         let knn: &[u32] = rows.knn;
+        if let Some(out) = rows_out {
+            out.copy_from_slice(knn);
+        }
         // d_i: mean distance to the k nearest.
         let mean = s.try_alloc_slice::<f32>(n, 0.0)?;
         for (i, (row, d)) in knn.chunks_exact(k).zip(mean.iter_mut()).enumerate() {
@@ -167,7 +198,7 @@ pub fn clean(
             fragment_points: stats.fragment_points as usize,
         });
     }
-    Ok(stats)
+    Ok((stats, Some(scans)))
 }
 
 /// Mean and (population) standard deviation, in `f64`; `(0, 0)` when empty.

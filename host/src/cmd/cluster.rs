@@ -43,6 +43,7 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
         points_read,
         stats,
         mut buf,
+        rows,
     } = read_and_clean(
         &cmd.input,
         &cmd.memory,
@@ -53,7 +54,13 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
     let arena_reserved = buf.len();
     let arena = vsaqem_core::Arena::new(&mut buf);
     let out = input
-        .run_core(vsaqem_core::cluster, &arena, &params, &mut clock)
+        .run_core(
+            vsaqem_core::cluster_with_rows,
+            rows.as_ref().map(|r| r.rows()).as_ref(),
+            &arena,
+            &params,
+            &mut clock,
+        )
         .map_err(|e| format!("{}: {e}", input.name))?;
     clock.time("write", || write_clusters(&cmd.output, &input, &out))?;
     let diag = out.bounds.diag;

@@ -131,6 +131,7 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
         points_read,
         stats,
         mut buf,
+        rows,
     } = read_and_clean(
         &cmd.input,
         &cmd.memory,
@@ -140,7 +141,13 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
     )?;
     let arena_reserved = buf.len();
     let arena = vsaqem_core::Arena::new(&mut buf);
-    let out = input.run_core(vsaqem_core::reconstruct, &arena, &params, &mut clock);
+    let out = input.run_core(
+        vsaqem_core::reconstruct_with_rows,
+        rows.as_ref().map(|r| r.rows()).as_ref(),
+        &arena,
+        &params,
+        &mut clock,
+    );
     let out = out.map_err(|e| match e {
         Error::MeshCapacity { .. } => format!(
             "{}: {e} (--mesh-bytes-per-cluster, now {})",
