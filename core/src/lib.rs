@@ -31,6 +31,11 @@
 //! - Structure of arrays, `u32` indices (so at most `u32::MAX - 1` points).
 //! - Reductions over many values (cluster quadrics, averages) accumulate in `f64`.
 //! - Deterministic: the same input and [`Params`] give bit-identical results.
+//! - Threads are the caller's: stages whose work splits into independent parts
+//!   (the k-NN queries, the plane quadrics, the generator updates, the
+//!   point-to-mesh distances and the fit's searches) are cut into a fixed
+//!   number of tasks ([`parallel`]) that the caller's [`Progress::run`] may run
+//!   on any threads; the result is the same bytes for every thread count.
 //!
 //! ## The pipeline
 //! The folders are its phases, and each file in them one stage, in the order data
@@ -40,7 +45,9 @@
 //! points they keep before reconstructing):
 //! - [`clean()`]: statistical outliers and small isolated fragments, on the exact
 //!   k-NN graph; its arena bound is [`clean_bytes`], never more than
-//!   [`arena_bytes`].
+//!   [`arena_bytes`]. [`clean_with_rows`] also hands back that graph, which
+//!   [`reconstruct_with_rows`] takes instead of searching again when every
+//!   point was kept.
 //! - [`smooth()`]: points onto the least-squares plane of
 //!   their neighbours.
 //!

@@ -17,7 +17,7 @@ use crate::error::Result;
 use crate::progress::{tick, Progress, Stage};
 use core::ops::Range;
 
-/// Items per wave of [`rows_in_waves`]: progress is reported, and a cancel
+/// Items per wave of a long parallel stage: progress is reported, and a cancel
 /// request honoured, between waves.
 pub const WAVE: usize = 1 << 16;
 

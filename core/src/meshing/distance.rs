@@ -36,7 +36,8 @@ pub struct MeshDistance {
 /// long as `points`; extra entries of either are ignored. `hints`, when given
 /// (as long as `points`), holds a face near each point (`u32::MAX`: none),
 /// where its search starts (a good one prunes most of it; the distance is the
-/// same whatever the hint), and on return its nearest face.
+/// same whatever the hint), and on return its nearest face. The searches run
+/// as parallel tasks through `hooks` ([`crate::parallel`]).
 pub fn try_point_distances_in<'b, A: Alloc<'b>>(
     alloc: &A,
     points: &[V3],
