@@ -239,9 +239,7 @@ pub fn try_neighbours_in<'a>(
     progress: &mut dyn Progress,
 ) -> Result<Neighbours<'a>> {
     let n = points.len();
-    if k == 0 || k > MAX_K || k >= n {
-        return Err(Error::BadNeighbours { k, points: n });
-    }
+    usable_k(k, n)?;
     tick(progress, Stage::Neighbours, 0, n as u64)?;
     let rows = try_knn_rows_in(arena, points, k, Stage::Neighbours, progress)?;
     let knn: &'a [u32] = rows.knn;
@@ -281,9 +279,7 @@ pub fn try_knn_rows_in<'a, 'b, A: Alloc<'b>>(
     progress: &mut dyn Progress,
 ) -> Result<KnnRows<'a>> {
     let n = points.len();
-    if k == 0 || k > MAX_K || k >= n {
-        return Err(Error::BadNeighbours { k, points: n });
-    }
+    usable_k(k, n)?;
     tick(progress, stage, 0, n as u64)?;
     let knn = a.try_alloc_slice::<u32>(n * k, 0)?;
     let mut linear_scans = 0u32;
@@ -322,6 +318,15 @@ pub fn try_knn_rows_in<'a, 'b, A: Alloc<'b>>(
         spacing,
         linear_scans,
     })
+}
+
+/// `k` neighbours are possible among `n` points: `1 <= k <= MAX_K` and `k < n`
+/// (else [`Error::BadNeighbours`]).
+fn usable_k(k: usize, n: usize) -> Result<()> {
+    if k == 0 || k > MAX_K || k >= n {
+        return Err(Error::BadNeighbours { k, points: n });
+    }
+    Ok(())
 }
 
 /// Mean distance from a point to its `k` nearest (rows of `knn`, which must
@@ -366,9 +371,7 @@ pub fn try_neighbours_from_in<'a>(
     progress: &mut dyn Progress,
 ) -> Result<Neighbours<'a>> {
     let n = points.len();
-    if k == 0 || k > MAX_K || k >= n {
-        return Err(Error::BadNeighbours { k, points: n });
-    }
+    usable_k(k, n)?;
     if knn.len() != n * k {
         return Err(Error::BadNeighbourTable {
             row: knn.len() / k,
