@@ -143,7 +143,7 @@ pub fn cluster<'a>(
     params: &Params,
     progress: &mut dyn Progress,
 ) -> Result<Clustered<'a>> {
-    Ok(clustering::try_clustering_in(arena, points, normals, None, params, progress)?.close(arena))
+    cluster_with_rows(arena, points, normals, None, params, progress)
 }
 
 /// [`cluster`] on the k-NN table the caller already has for these points, when
@@ -210,7 +210,7 @@ pub fn reconstruct<'a>(
     params: &Params,
     progress: &mut dyn Progress,
 ) -> Result<Reconstruction<'a>> {
-    reconstruct_in(arena, points, normals, None, params, progress)
+    reconstruct_with_rows(arena, points, normals, None, params, progress)
 }
 
 /// [`reconstruct`] on the k-NN table the caller already has for these points,
@@ -227,24 +227,7 @@ pub fn reconstruct_with_rows<'a>(
     params: &Params,
     progress: &mut dyn Progress,
 ) -> Result<Reconstruction<'a>> {
-    reconstruct_in(
-        arena,
-        points,
-        normals,
-        rows.map(Rows::known),
-        params,
-        progress,
-    )
-}
-
-fn reconstruct_in<'a>(
-    arena: &'a Arena,
-    points: &[V3],
-    normals: Option<&[V3]>,
-    known: Option<clustering::KnownRows>,
-    params: &Params,
-    progress: &mut dyn Progress,
-) -> Result<Reconstruction<'a>> {
+    let known = rows.map(Rows::known);
     // Meshing may use what the budget leaves (at least its capacity, more where
     // the earlier stages used less than their worst case), never more: so the
     // budget holds, and the outcome does not depend on the buffer's size.

@@ -50,29 +50,25 @@ pub fn try_point_distances_in<'b, A: Alloc<'b>>(
     alloc.scratch(|s| {
         let grid = FaceGrid::try_new_in(s, vertices, faces)?;
         let n = points.len().min(out.len());
-        // Without hints (or the wrong number), every search starts afresh.
-        let mut none = [];
-        let (hints, given) = match hints.filter(|h| h.len() == points.len()) {
-            Some(h) => (&mut h[..n], true),
-            None => (&mut none[..], false),
-        };
         let search = |i: usize, hint: Option<u32>| {
             let near = grid.nearest_from(points[i], hint.filter(|&f| f != u32::MAX));
             let d = near.map_or(f32::INFINITY, |(_, d2)| libm::sqrtf(d2));
             (near.map_or(u32::MAX, |(f, _)| f), d)
         };
-        if given {
-            parallel::pairs(hooks, &mut out[..n], hints, |items, d, h| {
+        // Without hints (or the wrong number), every search starts afresh.
+        match hints.filter(|h| h.len() == points.len()) {
+            Some(hints) => parallel::pairs(hooks, &mut out[..n], hints, |items, d, h| {
                 for ((i, d), h) in items.zip(d.iter_mut()).zip(h.iter_mut()) {
                     (*h, *d) = search(i, Some(*h));
                 }
-            });
-        } else {
-            parallel::rows(hooks, &mut out[..n], 1, |items, d: &mut [f32]| {
-                for (i, d) in items.zip(d.iter_mut()) {
-                    *d = search(i, None).1;
-                }
-            });
+            }),
+            None => {
+                parallel::rows(hooks, &mut out[..n], 1, |items, d: &mut [f32]| {
+                    for (i, d) in items.zip(d.iter_mut()) {
+                        *d = search(i, None).1;
+                    }
+                });
+            }
         }
         Ok(())
     })
