@@ -152,7 +152,7 @@ pub fn cluster_with_rows<'a>(
     arena: &'a Arena,
     points: &[V3],
     normals: Option<&[V3]>,
-    rows: Option<&Rows>,
+    rows: Option<&Rows<'a>>,
     params: &Params,
     progress: &mut dyn Progress,
 ) -> Result<Clustered<'a>> {
@@ -174,8 +174,8 @@ pub struct Rows<'r> {
     pub linear_scans: u32,
 }
 
-impl Rows<'_> {
-    fn known(&self) -> clustering::KnownRows<'_> {
+impl<'r> Rows<'r> {
+    fn known(&self) -> clustering::KnownRows<'r> {
         clustering::KnownRows {
             knn: self.knn,
             linear_scans: self.linear_scans,
@@ -223,7 +223,7 @@ pub fn reconstruct_with_rows<'a>(
     arena: &'a Arena,
     points: &[V3],
     normals: Option<&[V3]>,
-    rows: Option<&Rows>,
+    rows: Option<&Rows<'a>>,
     params: &Params,
     progress: &mut dyn Progress,
 ) -> Result<Reconstruction<'a>> {

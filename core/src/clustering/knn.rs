@@ -358,14 +358,15 @@ pub fn spacing(points: &[V3], knn: &[u32], k: usize, hooks: &dyn Progress) -> f3
 
 /// The neighbour graph of `points` from a k-NN table the caller already has
 /// (`knn`, row `i` the `k` nearest other points of `i`, nearest first, ties
-/// by index: what [`crate::clean_with_rows`] writes), copied into `arena`
-/// with its reverse edges: [`try_neighbours_in`] without the search. A table
+/// by index: what [`crate::clean_with_rows`] writes), borrowed where it lies
+/// (not copied: the arena holds only its reverse edges), so it must outlive
+/// the arena's results: [`try_neighbours_in`] without the search. A table
 /// of the wrong length, or with an entry that is out of range or the row's own
 /// point, fails with [`Error::BadNeighbourTable`].
 pub fn try_neighbours_from_in<'a>(
     arena: &'a Arena,
     points: &[V3],
-    knn: &[u32],
+    knn: &'a [u32],
     k: usize,
     linear_scans: u32,
     progress: &mut dyn Progress,
@@ -387,8 +388,6 @@ pub fn try_neighbours_from_in<'a>(
         }
     }
     tick(progress, Stage::Neighbours, 0, n as u64)?;
-    let table = arena.try_alloc_copy::<u32>(knn)?;
-    let knn: &'a [u32] = table;
     let (rev_start, rev) = reverse_edges_in(arena, knn, k)?;
     tick(progress, Stage::Neighbours, n as u64, n as u64)?;
     Ok(Neighbours {

@@ -118,7 +118,7 @@ pub(crate) fn try_clustering_in<'a>(
     arena: &'a Arena,
     points: &[V3],
     normals: Option<&[V3]>,
-    known: Option<KnownRows>,
+    known: Option<KnownRows<'a>>,
     params: &Params,
     progress: &mut dyn Progress,
 ) -> Result<Clustering<'a>> {

@@ -90,13 +90,18 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
 }
 
 fn write_clusters(path: &Path, input: &Prepared, out: &Clustered) -> Result<(), String> {
-    let labels = out.clusters.labels;
     let gens = out.clusters.generators;
-    let mut pts = input.original.clone();
+    // The points go out in the order they were read (core saw them in spatial
+    // order, see `Prepared::in_spatial_order`).
+    let mut at: Vec<usize> = (0..input.original.len()).collect();
+    if let Some(order) = &input.order {
+        at.sort_unstable_by_key(|&i| order[i]);
+    }
+    let mut pts: Vec<[f64; 3]> = at.iter().map(|&i| input.original[i]).collect();
     pts.extend(gens.iter().map(|&g| input.frame.to_file(g)));
-    let mut colours: Vec<[u8; 3]> = labels.iter().map(|&l| label_colour(l)).collect();
+    let mut ids: Vec<u32> = at.iter().map(|&i| out.clusters.labels[i]).collect();
+    let mut colours: Vec<[u8; 3]> = ids.iter().map(|&l| label_colour(l)).collect();
     colours.extend(std::iter::repeat_n([0, 0, 0], gens.len()));
-    let mut ids = labels.to_vec();
     ids.extend(0..gens.len() as u32);
     write_atomic(path, |w| {
         write_points_ply(w, &pts, &colours, Some(("cluster", &ids)))

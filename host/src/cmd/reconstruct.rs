@@ -127,7 +127,7 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
     let mut clock = StageClock::new(!cmd.quiet).with_threads(cmd.memory.threads());
     let params = cmd.params();
     let Cleaned {
-        input,
+        mut input,
         points_read,
         stats,
         mut buf,
@@ -139,6 +139,11 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
         vsaqem_core::arena_bytes,
         &mut clock,
     )?;
+    // The mesh needs only the points in core coordinates and the frame: the
+    // positions as read (24 bytes a point) and the input order go before the
+    // run, so they are not resident beside the arena.
+    input.original = Vec::new();
+    input.order = None;
     let arena_reserved = buf.len();
     let arena = vsaqem_core::Arena::new(&mut buf);
     let out = input.run_core(
