@@ -217,8 +217,9 @@ pub fn grid_scratch_bytes(n: usize) -> usize {
 /// Arena bytes of the neighbour stage for `n` points and `k` neighbours:
 /// `(peak, kept)`. Kept: the k-NN table (`4 k` per point) and the reverse-only
 /// table, at its worst (`4 (n + 1) + 4 k n`: no neighbour relation mutual; real
-/// clouds have one or two reverse-only edges per point, but a cloud can have
-/// almost none mutual). The peak adds the larger of the grid scratch and the
+/// clouds have one or two reverse-only edges per point, but one point stored
+/// many times reaches `k` a point, so no lower bound holds for every cloud:
+/// see the test `copies_of_one_point_reach_the_reverse_tables_worst_case`). The peak adds the larger of the grid scratch and the
 /// reverse table's cursor (4 per point). Keep in step with
 /// [`try_neighbours_in`] and `reverse_edges_in`.
 pub fn neighbours_bytes(n: usize, k: usize) -> (usize, usize) {
@@ -278,10 +279,37 @@ pub fn try_knn_rows_in<'a, 'b, A: Alloc<'b>>(
     stage: Stage,
     progress: &mut dyn Progress,
 ) -> Result<KnnRows<'a>> {
+    usable_k(k, points.len())?;
+    let knn = a.try_alloc_slice::<u32>(points.len() * k, 0)?;
+    let linear_scans = try_fill_knn_rows(a, points, k, knn, stage, progress)?;
+    let spacing = spacing(points, knn, k, &*progress);
+    Ok(KnnRows {
+        knn,
+        spacing,
+        linear_scans,
+    })
+}
+
+/// [`try_knn_rows_in`] into the caller's table `knn` (`n k` entries, else
+/// [`Error::BadNeighbourTable`]), with only the grid in scratch from `a`.
+/// Returns the queries that fell back to a linear scan.
+pub fn try_fill_knn_rows<'b, A: Alloc<'b>>(
+    a: &A,
+    points: &[V3],
+    k: usize,
+    knn: &mut [u32],
+    stage: Stage,
+    progress: &mut dyn Progress,
+) -> Result<u32> {
     let n = points.len();
     usable_k(k, n)?;
+    if knn.len() != n * k {
+        return Err(Error::BadNeighbourTable {
+            row: knn.len() / k,
+            entry: knn.len() as u64,
+        });
+    }
     tick(progress, stage, 0, n as u64)?;
-    let knn = a.try_alloc_slice::<u32>(n * k, 0)?;
     let mut linear_scans = 0u32;
     a.scratch(|s| -> Result<()> {
         let grid = build_grid(s, points, k)?;
@@ -312,12 +340,7 @@ pub fn try_knn_rows_in<'a, 'b, A: Alloc<'b>>(
             |scans| linear_scans += scans,
         )
     })?;
-    let spacing = spacing(points, knn, k, &*progress);
-    Ok(KnnRows {
-        knn,
-        spacing,
-        linear_scans,
-    })
+    Ok(linear_scans)
 }
 
 /// `k` neighbours are possible among `n` points: `1 <= k <= MAX_K` and `k < n`
@@ -724,6 +747,25 @@ mod tests {
         // Corner and edge points also have their 4 nearest at 0.01 except corners
         // (0.01, 0.01, then diagonal 0.01414 twice... no: two at 0.01, two at 0.02).
         assert!((nb.spacing - 0.01).abs() < 2e-4, "{}", nb.spacing);
+    }
+
+    /// The bound's worst case for the reverse-only table (`k` entries a point)
+    /// is reached, not only approached, by an ordinary defect: one point
+    /// stored many times. Ties go by index, so every copy past the first
+    /// `k + 1` lists the first `k`, none of which lists it back. So no bound
+    /// below `k n` holds for every cloud.
+    #[test]
+    fn copies_of_one_point_reach_the_reverse_tables_worst_case() {
+        let (n, k) = (1000, 12);
+        let pts = vec![[0.25f32, -0.5, 0.75]; n];
+        let mut buf = vec![MaybeUninit::uninit(); 1 << 20];
+        let arena = Arena::new(&mut buf);
+        let nb = try_neighbours_in(&arena, &pts, k, &mut Silent).unwrap();
+        assert_eq!(nb.rev.len(), (n - k - 1) * k);
+        let (_, kept) = neighbours_bytes(n, k);
+        let used = padded_bytes::<u32>(n * k) + padded_bytes::<u32>(n + 1);
+        assert!(used + padded_bytes::<u32>(nb.rev.len()) <= kept);
+        assert!(nb.rev.len() * 100 >= n * k * 98, "within 2 % of the bound");
     }
 
     #[test]

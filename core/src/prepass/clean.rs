@@ -137,13 +137,21 @@ pub fn clean_with_rows(
     let k = params.k;
     let mut scans = 0;
     arena.scratch(|s| -> Result<()> {
-        let rows = knn::try_knn_rows_in(s, points, k, Stage::Clean, progress)?;
-        stats.spacing = rows.spacing;
-        scans = rows.linear_scans;
-        let knn: &[u32] = rows.knn;
-        if let Some(out) = rows_out {
-            out.copy_from_slice(knn);
-        }
+        // The caller's table, when given, is searched into where it lies (not
+        // into the arena and copied: that would hold it twice at the peak).
+        let knn: &[u32] = match rows_out {
+            Some(out) => {
+                scans = knn::try_fill_knn_rows(s, points, k, out, Stage::Clean, progress)?;
+                stats.spacing = knn::spacing(points, out, k, &*progress);
+                out
+            }
+            None => {
+                let rows = knn::try_knn_rows_in(s, points, k, Stage::Clean, progress)?;
+                stats.spacing = rows.spacing;
+                scans = rows.linear_scans;
+                rows.knn
+            }
+        };
         // d_i: mean distance to the k nearest.
         let mean = s.try_alloc_slice::<f32>(n, 0.0)?;
         for (i, (row, d)) in knn.chunks_exact(k).zip(mean.iter_mut()).enumerate() {
