@@ -156,11 +156,7 @@ pub fn cluster_with_rows<'a>(
     params: &Params,
     progress: &mut dyn Progress,
 ) -> Result<Clustered<'a>> {
-    let known = rows.map(Rows::known);
-    Ok(
-        clustering::try_clustering_in(arena, points, normals, known, params, progress)?
-            .close(arena),
-    )
+    Ok(clustering::try_clustering_in(arena, points, normals, rows, params, progress)?.close(arena))
 }
 
 /// A k-NN table of a set of points, as [`clean_with_rows`] writes it: row `i`
@@ -172,15 +168,6 @@ pub struct Rows<'r> {
     pub knn: &'r [u32],
     /// Queries of it that fell back to a linear scan (for the statistics).
     pub linear_scans: u32,
-}
-
-impl<'r> Rows<'r> {
-    fn known(&self) -> clustering::KnownRows<'r> {
-        clustering::KnownRows {
-            knn: self.knn,
-            linear_scans: self.linear_scans,
-        }
-    }
 }
 
 /// A reconstruction: the mesh and how it was made.
@@ -215,7 +202,9 @@ pub fn reconstruct<'a>(
 
 /// [`reconstruct`] on the k-NN table the caller already has for these points,
 /// when given (from [`clean_with_rows`], when cleaning kept every point): the
-/// neighbour search is not run again; the result is the same as [`reconstruct`]'s. A
+/// neighbour search is not run again and the table is borrowed where it lies
+/// (so it outlives the results), not copied into `arena`; the result is the
+/// same as [`reconstruct`]'s. A
 /// table of the wrong length or with an entry out of range or equal to its row
 /// fails with [`Error::BadNeighbourTable`]; one that lists other neighbours
 /// than the nearest gives another (valid) mesh.
@@ -227,7 +216,6 @@ pub fn reconstruct_with_rows<'a>(
     params: &Params,
     progress: &mut dyn Progress,
 ) -> Result<Reconstruction<'a>> {
-    let known = rows.map(Rows::known);
     // Meshing may use what the budget leaves (at least its capacity, more where
     // the earlier stages used less than their worst case), never more: so the
     // budget holds, and the outcome does not depend on the buffer's size.
@@ -235,7 +223,7 @@ pub fn reconstruct_with_rows<'a>(
         .used()
         .saturating_add(budget::reconstruct_bound(points.len(), params));
     let mut clustering =
-        clustering::try_clustering_in(arena, points, normals, known, params, progress)?;
+        clustering::try_clustering_in(arena, points, normals, rows, params, progress)?;
     // Points farther than this from the mesh call for a refinement round.
     let max_distance = params.refine_distance(clustering.bounds.diag);
     // Clusters a round leaves without a face, for refinement: one buffer for all

@@ -303,12 +303,7 @@ pub fn try_fill_knn_rows<'b, A: Alloc<'b>>(
 ) -> Result<u32> {
     let n = points.len();
     usable_k(k, n)?;
-    if knn.len() != n * k {
-        return Err(Error::BadNeighbourTable {
-            row: knn.len() / k,
-            entry: knn.len() as u64,
-        });
-    }
+    check_table_len(knn.len(), n, k)?;
     tick(progress, stage, 0, n as u64)?;
     let mut linear_scans = 0u32;
     a.scratch(|s| -> Result<()> {
@@ -341,6 +336,18 @@ pub fn try_fill_knn_rows<'b, A: Alloc<'b>>(
         )
     })?;
     Ok(linear_scans)
+}
+
+/// A k-NN table of `len` entries holds `n` rows of `k` (else
+/// [`Error::BadNeighbourTable`], naming the rows it would hold and its length).
+pub(crate) fn check_table_len(len: usize, n: usize, k: usize) -> Result<()> {
+    if len == n.saturating_mul(k) {
+        return Ok(());
+    }
+    Err(Error::BadNeighbourTable {
+        row: len / k.max(1),
+        entry: len as u64,
+    })
 }
 
 /// `k` neighbours are possible among `n` points: `1 <= k <= MAX_K` and `k < n`
@@ -396,12 +403,7 @@ pub fn try_neighbours_from_in<'a>(
 ) -> Result<Neighbours<'a>> {
     let n = points.len();
     usable_k(k, n)?;
-    if knn.len() != n * k {
-        return Err(Error::BadNeighbourTable {
-            row: knn.len() / k,
-            entry: knn.len() as u64,
-        });
-    }
+    check_table_len(knn.len(), n, k)?;
     for (i, row) in knn.chunks_exact(k).enumerate() {
         if let Some(&j) = row.iter().find(|&&j| j as usize >= n || j as usize == i) {
             return Err(Error::BadNeighbourTable {

@@ -27,6 +27,7 @@ use crate::math::V3;
 use crate::params::Params;
 use crate::progress::{tick, Progress, Stage};
 use crate::validate::{self, Bounds};
+use crate::Rows;
 use knn::Neighbours;
 use partition::{ClusterState, ClusterStats, Clusters};
 use quadric::Planes;
@@ -104,21 +105,13 @@ impl<'a> Clustering<'a> {
     }
 }
 
-/// A k-NN table the caller already has for the points, and how many of its
-/// queries fell back to a linear scan: stage 1 then only copies it.
-#[derive(Clone, Copy)]
-pub(crate) struct KnownRows<'r> {
-    pub knn: &'r [u32],
-    pub linear_scans: u32,
-}
-
 /// Checks the input, then runs stages 1-5 in `arena` (stage 1 from `known`
-/// rows when given).
+/// rows when given: borrowed, not searched again).
 pub(crate) fn try_clustering_in<'a>(
     arena: &'a Arena,
     points: &[V3],
     normals: Option<&[V3]>,
-    known: Option<KnownRows<'a>>,
+    known: Option<&Rows<'a>>,
     params: &Params,
     progress: &mut dyn Progress,
 ) -> Result<Clustering<'a>> {

@@ -115,14 +115,8 @@ pub fn clean_with_rows(
             keep: keep.len(),
         });
     }
-    if let Some(r) = rows_out
-        .as_deref()
-        .filter(|r| r.len() != n.saturating_mul(params.k))
-    {
-        return Err(Error::BadNeighbourTable {
-            row: r.len() / params.k.max(1),
-            entry: r.len() as u64,
-        });
+    if let Some(r) = rows_out.as_deref() {
+        knn::check_table_len(r.len(), n, params.k)?;
     }
     keep.fill(true);
     let mut stats = CleanStats {
