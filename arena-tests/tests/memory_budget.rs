@@ -4,10 +4,13 @@
 //!   (only with few points per cluster), fails with `MeshCapacity`, never
 //!   `Exhausted`; with the capacity raised, the raised budget holds too;
 //! - it is not wasteful: at most twice the measured peak;
-//! - one byte less than the peak is a typed `Exhausted`, never a panic, and the
-//!   buffer serves a later run unchanged;
-//! - from a tiny budget to an ample one, every run succeeds with a clean mesh or
-//!   fails with `Exhausted`, and the peak is the exact threshold between the two;
+//! - what a cloud needs once its neighbour graph is known,
+//!   `reconstruct_bytes_for(n, &params, reverse_edges, true)`, is enough and
+//!   gives the same mesh; one byte less is a typed `ArenaTooSmall` naming that
+//!   size, never a panic, and the buffer serves a later run unchanged;
+//! - from a tiny budget to an ample one, every run succeeds with the same mesh
+//!   or is refused with `ArenaTooSmall` (never `Exhausted` part-way), and the
+//!   cloud's need is the exact threshold between the two;
 //! - the peak grows linearly with the points.
 //!
 //! Shared clouds are read from `../shared/data/clouds` (skipped when absent).
@@ -18,7 +21,9 @@ use arena_tests::{
 use std::mem::MaybeUninit;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use vsaqem_core::sample::Shape;
-use vsaqem_core::{arena_bytes, reconstruct, Arena, Error, Params, Silent, V3};
+use vsaqem_core::{
+    arena_bytes, reconstruct, reconstruct_bytes_for, Arena, Error, Params, Silent, V3,
+};
 
 /// The parameter sets: the default, few and many clusters, k up and down, and
 /// refinement (which runs meshing several times).
@@ -39,11 +44,32 @@ fn sets() -> Vec<(&'static str, Params)> {
     ]
 }
 
-/// A mesh and the arena's peak.
+/// A mesh, the arena's peak and the neighbour graph's reverse-only edges.
 struct Run {
     vertices: Vec<V3>,
     triangles: Vec<[u32; 3]>,
     peak: usize,
+    reverse_edges: usize,
+}
+
+impl Run {
+    /// What this cloud needs: a buffer of this size is enough wherever it
+    /// starts; one that starts on an 8-byte boundary needs 7 bytes less
+    /// ([`aligned_need`]).
+    fn need(&self, n: usize, params: &Params) -> usize {
+        reconstruct_bytes_for(n, params, self.reverse_edges, true)
+    }
+}
+
+/// The threshold for a buffer that starts on an 8-byte boundary (checked):
+/// `need` less the 7 bytes of alignment slack it includes.
+fn aligned_need(buf: &[MaybeUninit<u8>], need: usize) -> usize {
+    assert_eq!(
+        buf.as_ptr() as usize % 8,
+        0,
+        "the test buffer is not 8-byte aligned"
+    );
+    need - 7
 }
 
 /// Reconstruct in `buf`, copying the mesh out.
@@ -54,6 +80,7 @@ fn run_in(buf: &mut [MaybeUninit<u8>], points: &[V3], params: &Params) -> Result
         vertices: r.mesh.vertices.to_vec(),
         triangles: r.mesh.triangles.to_vec(),
         peak: arena.peak(),
+        reverse_edges: r.clustered.stats.reverse_edges as usize,
     })
 }
 
@@ -139,7 +166,7 @@ fn every_shared_cloud_fits_its_budget_within_twice_the_peak() {
 }
 
 #[test]
-fn one_byte_less_than_the_peak_is_exhausted_and_the_buffer_serves_again() {
+fn one_byte_less_than_the_clouds_need_is_refused_and_the_buffer_serves_again() {
     let mut cases: Vec<(String, Vec<V3>, Params)> = vec![
         (
             "demo".into(),
@@ -164,14 +191,33 @@ fn one_byte_less_than_the_peak_is_exhausted_and_the_buffer_serves_again() {
     for (name, points, params) in cases {
         let mut buf = vec![MaybeUninit::uninit(); arena_bytes(points.len(), &params)];
         let first = run_in(&mut buf, &points, &params).unwrap();
-        let short = &mut buf[..first.peak - 1];
+        let need = first.need(points.len(), &params);
+        assert!(
+            first.peak <= need && need <= buf.len(),
+            "{name}: peak {}, need {need}, worst case {}",
+            first.peak,
+            buf.len()
+        );
+        let at = aligned_need(&buf, need);
+        let enough = run_in(&mut buf[..at], &points, &params).unwrap();
+        assert!(
+            enough.vertices == first.vertices && enough.triangles == first.triangles,
+            "{name}: another mesh in {at} bytes"
+        );
+        let short = &mut buf[..at - 1];
         let outcome = catch_unwind(AssertUnwindSafe(|| run_in(short, &points, &params)));
         match outcome {
-            Ok(Err(Error::Exhausted(e))) => {
-                eprintln!("{name}: peak {} bytes; one less: {e}", first.peak);
+            Ok(Err(e @ Error::ArenaTooSmall { needed, .. })) => {
+                eprintln!(
+                    "{name}: peak {} bytes, need {need} ({:.1}/point, worst case {:.1}); one less: {e}",
+                    first.peak,
+                    need as f64 / points.len() as f64,
+                    buf.len() as f64 / points.len() as f64
+                );
+                assert_eq!(needed, need, "{name}: the size named");
             }
             Ok(Err(e)) => panic!("{name}: {e}"),
-            Ok(Ok(_)) => panic!("{name}: succeeded below its own peak"),
+            Ok(Ok(_)) => panic!("{name}: succeeded below its need {at}"),
             Err(_) => panic!("{name}: panicked"),
         }
         let again = run_in(&mut buf, &points, &params).unwrap();
@@ -184,7 +230,7 @@ fn one_byte_less_than_the_peak_is_exhausted_and_the_buffer_serves_again() {
 }
 
 #[test]
-fn from_a_tiny_budget_to_an_ample_one_runs_succeed_or_are_exhausted_never_panic() {
+fn from_a_tiny_budget_to_an_ample_one_runs_succeed_or_are_refused_never_panic() {
     let cases = [
         (
             "cylinder",
@@ -215,8 +261,9 @@ fn from_a_tiny_budget_to_an_ample_one_runs_succeed_or_are_exhausted_never_panic(
         let mut budgets: Vec<usize> = (0..30)
             .map(|i| (64.0 * (budget as f64 / 64.0).powf(i as f64 / 29.0)) as usize)
             .collect();
-        budgets.extend([reference.peak - 1, reference.peak]);
-        let (mut ok, mut exhausted) = (0, 0);
+        let need = aligned_need(&buf, reference.need(points.len(), &params));
+        budgets.extend([reference.peak - 1, reference.peak, need - 1, need]);
+        let (mut ok, mut refused) = (0, 0);
         for b in budgets {
             let b = b.min(budget);
             let slice = &mut buf[..b];
@@ -225,21 +272,24 @@ fn from_a_tiny_budget_to_an_ample_one_runs_succeed_or_are_exhausted_never_panic(
                 Err(_) => panic!("{name}: panicked with {b} bytes"),
                 Ok(Ok(run)) => {
                     ok += 1;
-                    assert!(b >= reference.peak, "{name}: {b} bytes, below the peak");
+                    assert!(b >= need, "{name}: {b} bytes, below the need {need}");
                     assert!(
                         run.vertices == reference.vertices && run.triangles == reference.triangles,
                         "{name}: {b} bytes gave another mesh"
                     );
                 }
-                Ok(Err(Error::Exhausted(e))) => {
-                    exhausted += 1;
-                    assert!(b < reference.peak, "{name}: {b} bytes exhausted ({e})");
+                Ok(Err(e @ Error::ArenaTooSmall { .. })) => {
+                    refused += 1;
+                    assert!(b < need, "{name}: {b} bytes refused ({e})");
                 }
                 Ok(Err(e)) => panic!("{name}: {b} bytes: {e}"),
             }
         }
-        eprintln!("{name}: {ok} budgets enough, {exhausted} exhausted");
-        assert!(ok >= 2 && exhausted >= 20, "{name}: {ok} / {exhausted}");
+        eprintln!(
+            "{name}: {ok} budgets enough, {refused} refused (need {need}, peak {})",
+            reference.peak
+        );
+        assert!(ok >= 2 && refused >= 20, "{name}: {ok} / {refused}");
     }
 }
 

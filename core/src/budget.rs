@@ -38,6 +38,18 @@
 //! round. A denser candidate graph fails with
 //! [`Error::MeshCapacity`](crate::Error::MeshCapacity), whatever the arena's size,
 //! so the output never depends on how much memory the caller happened to give.
+//!
+//! A smaller buffer may still do: [`reconstruct_bytes_for`] and
+//! [`cluster_bytes_for`] are the same bounds with the reverse table at the
+//! size a cloud's neighbour graph really has (and without the k-NN table and
+//! its search's scratch when the caller gives the table). A run checks its
+//! buffer against them twice, failing with
+//! [`Error::ArenaTooSmall`](crate::Error::ArenaTooSmall) before it computes
+//! anything more: before any work with no reverse edge (the least for `n`
+//! points), and once the reverse edges are counted, before their table is
+//! allocated. Meshing's ceiling stays the worst-case bound, so a buffer that
+//! passes gives the same result, or, where meshing needed more than its
+//! capacity, [`Error::ArenaTooSmallForMeshing`](crate::Error::ArenaTooSmallForMeshing).
 
 use crate::arena::{padded_bytes, GRANULE};
 use crate::clustering::{knn, partition, quadric};
@@ -62,8 +74,8 @@ fn buffer_for(bound: usize) -> usize {
 /// Arena bytes that are always enough for [`cluster`](crate::cluster()) on `n`
 /// points with `params` (see the module docs).
 pub fn cluster_bytes(n: usize, params: &Params) -> usize {
-    let (peak, _) = stages(n, params);
-    buffer_for(round_up(peak))
+    let k = params.k.clamp(1, MAX_K);
+    buffer_for(cluster_bound_for(n, params, n.saturating_mul(k), true))
 }
 
 /// Arena bytes that are always enough for [`clean`](crate::clean()) on `n` points: the k-NN
@@ -73,8 +85,19 @@ pub fn cluster_bytes(n: usize, params: &Params) -> usize {
 /// About 140 bytes per point at k = 12; never more than
 /// [`arena_bytes`] for the same `n` and `params`.
 pub fn clean_bytes(n: usize, params: &Params) -> usize {
+    clean_bytes_for(n, params, false)
+}
+
+/// [`clean_bytes`] when the caller gives the k-NN table to fill
+/// ([`clean_with_rows`](crate::clean_with_rows)): the table is then not in the
+/// arena (about 92 bytes per point at k = 12).
+pub fn clean_bytes_for(n: usize, params: &Params, table_given: bool) -> usize {
     let k = params.k.clamp(1, MAX_K);
-    let rows = padded_bytes::<u32>(n.saturating_mul(k));
+    let rows = if table_given {
+        0
+    } else {
+        padded_bytes::<u32>(n.saturating_mul(k))
+    };
     let filters = padded_bytes::<f32>(n).saturating_add(padded_bytes::<u32>(n).saturating_mul(2));
     let bound = rows.saturating_add(knn::grid_scratch_bytes(n).max(filters));
     buffer_for(round_up(bound))
@@ -86,14 +109,52 @@ pub fn clean_bytes(n: usize, params: &Params) -> usize {
 /// start on an 8-byte boundary. About 140 bytes per point at k = 12 for large
 /// clouds, plus `mesh_bytes_per_cluster` and some 70 bytes per cluster of the
 /// cap. Saturates at `usize::MAX` instead of overflowing.
+///
+/// A smaller buffer may do: see [`reconstruct_bytes_for`], which is what a
+/// run checks (and fails with [`Error::ArenaTooSmall`](crate::Error::ArenaTooSmall)
+/// as soon as it knows it is short).
 pub fn arena_bytes(n: usize, params: &Params) -> usize {
     buffer_for(reconstruct_bound(n, params))
 }
 
+/// What [`reconstruct`](crate::reconstruct) on `n` points needs once its
+/// neighbour graph is known: as [`arena_bytes`], with the reverse-only table at
+/// its real size (`reverse_edges` entries, where the worst case is `k n`) and,
+/// when `searched` is false (the k-NN table was given,
+/// [`reconstruct_with_rows`](crate::reconstruct_with_rows)), neither the k-NN
+/// table nor the search's scratch. With `reverse_edges` = 0 it is the least any
+/// cloud of `n` points needs, which a run checks before any work; with the
+/// real count, checked as soon as it is counted (before the table is
+/// allocated). A run in a buffer of at least this size gives the same result as
+/// in one of [`arena_bytes`]: meshing's ceiling is this bound, whatever the
+/// buffer (real scans have one or two reverse-only edges per point, so 1M
+/// points need about 100 bytes each instead of 140).
+pub fn reconstruct_bytes_for(
+    n: usize,
+    params: &Params,
+    reverse_edges: usize,
+    searched: bool,
+) -> usize {
+    buffer_for(reconstruct_bound_for(n, params, reverse_edges, searched))
+}
+
 /// The most [`reconstruct`](crate::reconstruct) uses (a multiple of the
-/// granule): meshing may fill the arena up to here, never beyond.
+/// granule) at the worst: every neighbour relation one-way, the table searched.
 pub(crate) fn reconstruct_bound(n: usize, params: &Params) -> usize {
-    let (clustering, kept) = stages(n, params);
+    let k = params.k.clamp(1, MAX_K);
+    reconstruct_bound_for(n, params, n.saturating_mul(k), true)
+}
+
+/// The most [`reconstruct`](crate::reconstruct) uses (a multiple of the
+/// granule) with `reverse_edges` reverse-only neighbour edges: meshing may fill
+/// the arena up to here, never beyond.
+pub(crate) fn reconstruct_bound_for(
+    n: usize,
+    params: &Params,
+    reverse_edges: usize,
+    searched: bool,
+) -> usize {
+    let (clustering, kept) = stages(n, params, reverse_edges, searched);
     let cap = cap_bound(n, params);
     // Refinement keeps one list of uncovered clusters, then runs a clustering
     // step (its scratch is within the clustering bound) on top of it.
@@ -103,6 +164,24 @@ pub(crate) fn reconstruct_bound(n: usize, params: &Params) -> usize {
         .saturating_add(list)
         .saturating_add(mesh_capacity(n, cap, params));
     round_up(refine.max(meshing))
+}
+
+/// What [`cluster`](crate::cluster()) on `n` points needs once its neighbour
+/// graph is known: [`cluster_bytes`] with the real reverse-only table and,
+/// unless `searched`, no k-NN table nor search scratch (see
+/// [`reconstruct_bytes_for`]).
+pub fn cluster_bytes_for(n: usize, params: &Params, reverse_edges: usize, searched: bool) -> usize {
+    buffer_for(cluster_bound_for(n, params, reverse_edges, searched))
+}
+
+/// [`cluster_bytes_for`] without the alignment slack (a multiple of the granule).
+pub(crate) fn cluster_bound_for(
+    n: usize,
+    params: &Params,
+    reverse_edges: usize,
+    searched: bool,
+) -> usize {
+    round_up(stages(n, params, reverse_edges, searched).0)
 }
 
 fn round_up(bytes: usize) -> usize {
@@ -129,10 +208,12 @@ pub fn mesh_capacity(n: usize, cap: usize, params: &Params) -> usize {
         .saturating_add(1024)
 }
 
-/// `(peak of neighbours, quadrics and clustering, what clustering keeps)`.
-fn stages(n: usize, params: &Params) -> (usize, usize) {
+/// `(peak of neighbours, quadrics and clustering, what clustering keeps)` with
+/// `reverse_edges` reverse-only neighbour edges, the k-NN table in the arena
+/// (and its search's scratch) when `searched`.
+fn stages(n: usize, params: &Params, reverse_edges: usize, searched: bool) -> (usize, usize) {
     let k = params.k.clamp(1, MAX_K);
-    let (neighbours, nb_kept) = knn::neighbours_bytes(n, k);
+    let (neighbours, nb_kept) = knn::neighbours_bytes_for(n, k, reverse_edges, searched);
     let quadrics = nb_kept.saturating_add(quadric::planes_bytes(n));
     let (cl_kept, cl_scratch) = partition::partition_bytes(n, cap_bound(n, params));
     let kept = quadrics.saturating_add(cl_kept);

@@ -97,6 +97,30 @@ pub enum Error {
         /// Bytes of the capacity still free at that moment.
         available: usize,
     },
+    /// The arena is smaller than this run needs (checked before any work
+    /// against the least any cloud of this size needs, then against what this
+    /// cloud's neighbour graph needs as soon as it is counted:
+    /// [`crate::reconstruct_bytes_for`]). Nothing was computed past that point.
+    ArenaTooSmall {
+        /// Bytes of buffer that are enough (alignment slack included).
+        needed: usize,
+        /// Usable bytes of the arena given.
+        capacity: usize,
+        /// Reverse-only neighbour edges of the cloud, when counted (`None`:
+        /// the check before any work).
+        reverse_edges: Option<usize>,
+    },
+    /// A meshing round ran out of an arena smaller than [`crate::arena_bytes`]
+    /// (though as large as [`crate::reconstruct_bytes_for`]): its candidate
+    /// graph needed more than the meshing capacity, which it may do only in
+    /// room the worst-case budget leaves. A buffer of `needed` bytes gives the
+    /// mesh.
+    ArenaTooSmallForMeshing {
+        /// Bytes of buffer that are enough: [`crate::arena_bytes`].
+        needed: usize,
+        /// Usable bytes of the arena given.
+        capacity: usize,
+    },
     /// The `keep` slice given to [`crate::clean()`] does not match the points.
     KeepLength {
         /// Points given.
@@ -181,6 +205,30 @@ impl fmt::Display for Error {
                  ({requested} more requested, {available} left): the candidate graph is too \
                  dense, typically from too few points per cluster; use fewer clusters or \
                  raise the meshing memory per cluster"
+            ),
+            Error::ArenaTooSmall {
+                needed,
+                capacity,
+                reverse_edges: None,
+            } => write!(
+                f,
+                "the arena has {capacity} bytes; a run on this many points with these \
+                 parameters needs at least {needed}"
+            ),
+            Error::ArenaTooSmall {
+                needed,
+                capacity,
+                reverse_edges: Some(r),
+            } => write!(
+                f,
+                "the arena has {capacity} bytes; this cloud needs {needed} (its neighbour \
+                 graph has {r} one-way edges)"
+            ),
+            Error::ArenaTooSmallForMeshing { needed, capacity } => write!(
+                f,
+                "the arena has {capacity} bytes; meshing this cloud took more than its \
+                 capacity (a dense candidate graph: few points per cluster), which only a \
+                 buffer of {needed} bytes always has room for"
             ),
             Error::KeepLength { points, keep } => {
                 write!(f, "keep has {keep} entries for {points} points")

@@ -109,7 +109,10 @@ pub mod meshing;
 pub mod prepass;
 
 pub use arena::{Alloc, Arena, Exhausted, Scratch};
-pub use budget::{arena_bytes, clean_bytes, cluster_bytes, mesh_capacity};
+pub use budget::{
+    arena_bytes, clean_bytes, clean_bytes_for, cluster_bytes, cluster_bytes_for, mesh_capacity,
+    reconstruct_bytes_for,
+};
 pub use clustering::knn::Neighbours;
 pub use clustering::partition::{ClusterStats, Clusters};
 pub use clustering::quadric::Planes;
@@ -156,7 +159,11 @@ pub fn cluster_with_rows<'a>(
     params: &Params,
     progress: &mut dyn Progress,
 ) -> Result<Clustered<'a>> {
-    Ok(clustering::try_clustering_in(arena, points, normals, rows, params, progress)?.close(arena))
+    let need = budget::cluster_bound_for;
+    Ok(
+        clustering::try_clustering_in(arena, points, normals, rows, params, need, progress)?
+            .close(arena),
+    )
 }
 
 /// A k-NN table of a set of points, as [`clean_with_rows`] writes it: row `i`
@@ -216,14 +223,18 @@ pub fn reconstruct_with_rows<'a>(
     params: &Params,
     progress: &mut dyn Progress,
 ) -> Result<Reconstruction<'a>> {
-    // Meshing may use what the budget leaves (at least its capacity, more where
-    // the earlier stages used less than their worst case), never more: so the
-    // budget holds, and the outcome does not depend on the buffer's size.
+    // Meshing may use what the worst-case budget leaves (at least its
+    // capacity, more where the earlier stages used less than their worst
+    // case), never more: so the outcome does not depend on the buffer's size.
+    // A buffer smaller than that budget but as large as this cloud needs
+    // (checked in the clustering) gives the same mesh, or fails with
+    // `ArenaTooSmall` where meshing needed more than its capacity.
     let end = arena
         .used()
         .saturating_add(budget::reconstruct_bound(points.len(), params));
+    let need = budget::reconstruct_bound_for;
     let mut clustering =
-        clustering::try_clustering_in(arena, points, normals, rows, params, progress)?;
+        clustering::try_clustering_in(arena, points, normals, rows, params, need, progress)?;
     // Points farther than this from the mesh call for a refinement round.
     let max_distance = params.refine_distance(clustering.bounds.diag);
     // Clusters a round leaves without a face, for refinement: one buffer for all
@@ -296,7 +307,8 @@ pub fn reconstruct_with_rows<'a>(
 }
 
 /// Runs a meshing round under the ceiling `end`: running out of memory there is
-/// the meshing capacity's limit ([`Error::MeshCapacity`]), not the arena's.
+/// the meshing capacity's limit ([`Error::MeshCapacity`]); running out of a
+/// buffer that ends below the ceiling is [`Error::ArenaTooSmallForMeshing`].
 fn mesh_round_within<T>(arena: &Arena, end: usize, round: impl FnOnce() -> Result<T>) -> Result<T> {
     let start = arena.used();
     match arena.with_ceiling(end, round) {
@@ -304,6 +316,11 @@ fn mesh_round_within<T>(arena: &Arena, end: usize, round: impl FnOnce() -> Resul
             capacity: end.saturating_sub(start),
             requested: e.requested,
             available: e.available,
+        }),
+        // The buffer ended below the ceiling: a larger one would have gone on.
+        (Err(Error::Exhausted(_)), false) => Err(Error::ArenaTooSmallForMeshing {
+            needed: end.saturating_add(arena::GRANULE - 1),
+            capacity: arena.capacity(),
         }),
         (other, _) => other,
     }

@@ -199,17 +199,22 @@ impl MemoryArgs {
         })
     }
 
-    /// The arena size to use when the run needs `needed` bytes at most: the
-    /// `--memory` budget, checked against `needed` before any work, or `needed`.
-    pub fn arena_size(&self, needed: usize, points: usize) -> Result<usize, String> {
+    /// The arena size to use when the run needs `needed` bytes at most and at
+    /// least `least` (what any cloud of `points` points needs; what this one
+    /// needs depends on its neighbour graph, which core checks as soon as it is
+    /// counted): the `--memory` budget, checked against `least` before any
+    /// work, or `needed`.
+    pub fn arena_size(&self, needed: usize, least: usize, points: usize) -> Result<usize, String> {
         match self.memory {
             None => Ok(needed),
-            Some(given) if given >= needed => Ok(given),
+            Some(given) if given >= least => Ok(given),
             Some(given) => Err(format!(
-                "--memory {given} bytes ({:.1} MiB) is too small: this run needs {needed} \
-                 bytes ({:.1} MiB) for {points} points with these parameters; give at \
-                 least that, or use fewer clusters or neighbours",
+                "--memory {given} bytes ({:.1} MiB) is too small: this run needs at least \
+                 {least} bytes ({:.1} MiB) for {points} points with these parameters (up to \
+                 {needed}, {:.1} MiB, depending on the cloud); give more, or use fewer \
+                 clusters or neighbours",
                 mib(given),
+                mib(least),
                 mib(needed)
             )),
         }

@@ -41,20 +41,35 @@ impl KnnTable {
     }
 }
 
-/// Read the input, size the arena for a command that needs `run_bytes(points,
-/// params)` and for the pre-pass, checked against `--memory` before any work,
-/// then clean ([`clean_input`]).
+/// What a command needs from the arena for `(points, params)`: at most (the
+/// default buffer), and `(points, params, reverse-only edges, searched)` once
+/// the neighbour graph is known (its least with no reverse-only edges).
+pub struct RunBytes {
+    /// The worst case, e.g. `vsaqem_core::arena_bytes`.
+    pub most: fn(usize, &Params) -> usize,
+    /// For a known graph, e.g. `vsaqem_core::reconstruct_bytes_for`.
+    pub least: fn(usize, &Params, usize, bool) -> usize,
+}
+
+/// Read the input, size the arena for a command that needs `run` and for the
+/// pre-pass, checked against `--memory` before any work, then clean
+/// ([`clean_input`]).
 pub fn read_and_clean(
     input: &InputArgs,
     memory: &MemoryArgs,
     params: &Params,
-    run_bytes: fn(usize, &Params) -> usize,
+    run: RunBytes,
     clock: &mut StageClock,
 ) -> Result<Cleaned, String> {
     let input = read_input(input, clock)?;
-    let points_read = input.points.len();
-    let needed = with_clean(run_bytes(points_read, params), points_read, params);
-    let mut buf = arena_buffer(memory.arena_size(needed, points_read)?);
+    let n = input.points.len();
+    let needed = with_clean((run.most)(n, params), n, params, false);
+    // The run takes cleaning's table (no search of its own) unless cleaning
+    // is off or drops points, or smoothing moves them.
+    let searched = !params.cleans() || params.smooth_rounds > 0;
+    let least = with_clean((run.least)(n, params, 0, searched), n, params, true);
+    let points_read = n;
+    let mut buf = arena_buffer(memory.arena_size(needed, least, points_read)?);
     let (input, stats, rows) =
         clean_input(input, params, &mut buf, clock).inspect_err(|_| clock.finish())?;
     Ok(Cleaned {
@@ -66,13 +81,23 @@ pub fn read_and_clean(
     })
 }
 
+/// The least `--memory` a run on `points_read` points would have taken, when
+/// `run` bytes were enough for the command itself on the cleaned points (core's
+/// bound for their neighbour graph): [`with_clean`] with cleaning's table
+/// outside the arena, as [`filter_input`] keeps it.
+pub fn needed_with_clean(run: usize, points_read: usize, params: &Params) -> usize {
+    with_clean(run, points_read, params, true)
+}
+
 /// The arena a run on `n` points needs when `run` bytes are enough for the
-/// command itself: also enough for the cleaning pre-pass when it is on (it runs
-/// first, in the same buffer).
-fn with_clean(run: usize, n: usize, params: &Params) -> usize {
+/// command itself: also enough for the pre-passes when they are on (each runs
+/// first, in a buffer of its own no larger than the budget), cleaning with its
+/// k-NN table in the arena unless `table_outside` (the host's own table, as
+/// [`filter_input`] gives it).
+fn with_clean(run: usize, n: usize, params: &Params, table_outside: bool) -> usize {
     let run = run.max(vsaqem_core::smooth_bytes(n, params));
     if params.cleans() {
-        run.max(vsaqem_core::clean_bytes(n, params))
+        run.max(vsaqem_core::clean_bytes_for(n, params, table_outside))
     } else {
         run
     }
@@ -117,7 +142,7 @@ fn filter_input(
     if !params.cleans() {
         return Ok((input, None, None));
     }
-    let need = vsaqem_core::clean_bytes(input.points.len(), params);
+    let need = vsaqem_core::clean_bytes_for(input.points.len(), params, true);
     let mut own = arena_buffer(need.min(budget));
     let arena = Arena::new(&mut own);
     let mut keep = vec![true; input.points.len()];

@@ -211,24 +211,29 @@ pub struct RunReport {
     pub arena_peak: usize,
     /// Arena size in bytes (the `--memory` budget, or what the run can need).
     pub arena_reserved: usize,
+    /// The least `--memory` this run would have taken: what core bounds for
+    /// this cloud once its neighbour graph is known, and the pre-passes.
+    pub arena_needed: usize,
     /// The output file.
     pub output: String,
 }
 
 impl RunReport {
     /// The report of a run timed by `clock` (taken now: call it last), with an
-    /// arena of `arena_reserved` bytes that peaked at `arena_peak`, written to
-    /// `output`.
+    /// arena of `arena_reserved` bytes that peaked at `arena_peak` where
+    /// `arena_needed` would have done, written to `output`.
     pub fn new(
         clock: &StageClock,
         arena_peak: usize,
         arena_reserved: usize,
+        arena_needed: usize,
         output: &Path,
     ) -> Self {
         RunReport {
             timings: clock.timings(),
             arena_peak,
             arena_reserved,
+            arena_needed,
             output: output.display().to_string(),
         }
     }
@@ -238,21 +243,24 @@ impl RunReport {
     pub fn text(&self, points: usize, note: &str) -> String {
         format!(
             "time       {}\n\
-             memory     arena peak {} bytes ({:.1} bytes/point), {} reserved\n\
+             memory     arena peak {} bytes ({:.1} bytes/point), {} reserved, {} needed\n\
              output     {}{note}\n",
             self.timings.summary(),
             self.arena_peak,
             self.arena_peak as f64 / points as f64,
             self.arena_reserved,
+            self.arena_needed,
             self.output,
         )
     }
 
-    /// `time_ms`, `arena_peak_bytes`, `arena_reserved_bytes`, `output`.
+    /// `time_ms`, `arena_peak_bytes`, `arena_reserved_bytes`,
+    /// `arena_needed_bytes`, `output`.
     pub fn json(&self, o: &mut Obj) {
         o.raw("time_ms", &self.timings.json())
             .num("arena_peak_bytes", self.arena_peak as f64)
             .num("arena_reserved_bytes", self.arena_reserved as f64)
+            .num("arena_needed_bytes", self.arena_needed as f64)
             .str("output", &self.output);
     }
 }

@@ -1,12 +1,15 @@
 //! `--memory`: the arena budget of `reconstruct` and `cluster`, checked before any
-//! work against the bound core computes.
+//! work against the least any cloud of that size needs, then by core against
+//! what this cloud's neighbour graph needs as soon as it is counted.
 
 mod common;
 use common::{bin, field, run_with_report, SMALL};
 
 use std::path::{Path, PathBuf};
 use std::process::Output;
-use vsaqem_core::{arena_bytes, cluster_bytes, Params};
+use vsaqem_core::{
+    arena_bytes, clean_bytes_for, cluster_bytes, cluster_bytes_for, reconstruct_bytes_for, Params,
+};
 
 fn dir(name: &str) -> PathBuf {
     common::dir("memory", name)
@@ -37,18 +40,31 @@ fn run(command: &str, d: &Path, memory: &str) -> (Output, PathBuf, PathBuf) {
 }
 
 #[test]
-fn a_budget_below_the_bound_fails_at_once_naming_the_bytes_needed() {
-    for (command, needed) in [
-        ("reconstruct", arena_bytes(4000, &params())),
-        ("cluster", cluster_bytes(4000, &params())),
+fn a_budget_below_the_least_fails_at_once_naming_the_bytes_needed() {
+    // The least any 4000 points need: the run on cleaning's table (nothing
+    // searched, no one-way edge), or the cleaning with the table outside.
+    let p = params();
+    let clean = clean_bytes_for(4000, &p, true);
+    for (command, least, most) in [
+        (
+            "reconstruct",
+            reconstruct_bytes_for(4000, &p, 0, false).max(clean),
+            arena_bytes(4000, &p).max(vsaqem_core::clean_bytes(4000, &p)),
+        ),
+        (
+            "cluster",
+            cluster_bytes_for(4000, &p, 0, false).max(clean),
+            cluster_bytes(4000, &p).max(vsaqem_core::clean_bytes(4000, &p)),
+        ),
     ] {
         let d = dir(&format!("small_{command}"));
-        let (r, out, json) = run(command, &d, &(needed - 1).to_string());
+        let (r, out, json) = run(command, &d, &(least - 1).to_string());
         let stderr = String::from_utf8_lossy(&r.stderr);
         assert_eq!(r.status.code(), Some(1), "{command}: {stderr}");
         assert!(
-            stderr.contains(&format!("needs {needed} bytes"))
-                && stderr.contains(&format!("--memory {} bytes", needed - 1)),
+            stderr.contains(&format!("needs at least {least} bytes"))
+                && stderr.contains(&format!("up to {most},"))
+                && stderr.contains(&format!("--memory {} bytes", least - 1)),
             "{command}: {stderr}"
         );
         assert!(!stderr.contains("panicked"), "{stderr}");
@@ -76,6 +92,39 @@ fn the_bound_itself_is_enough_and_the_output_does_not_depend_on_the_budget() {
     let report = std::fs::read_to_string(&json).unwrap();
     assert_eq!(field(&report, "arena_reserved_bytes") as usize, 64 << 20);
     assert_eq!(std::fs::read(&out).unwrap(), exact);
+}
+
+#[test]
+fn the_clouds_own_need_is_reported_enough_and_one_byte_less_is_refused_after_the_search() {
+    let worst = arena_bytes(4000, &params());
+    let d = dir("worst");
+    let (r, out, json) = run("reconstruct", &d, &worst.to_string());
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    let report = std::fs::read_to_string(&json).unwrap();
+    let needed = field(&report, "arena_needed_bytes") as usize;
+    let peak = field(&report, "arena_peak_bytes") as usize;
+    assert!(
+        peak <= needed && needed < worst,
+        "peak {peak}, needed {needed}, worst {worst}"
+    );
+    let mesh = std::fs::read(&out).unwrap();
+    // The need reported is enough, for the same mesh.
+    let d = dir("needed");
+    let (r, out, _) = run("reconstruct", &d, &needed.to_string());
+    assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    assert_eq!(std::fs::read(&out).unwrap(), mesh);
+    // Less passes the check before any work (it is above the least), and is
+    // refused once the one-way edges are counted, naming the need: no output.
+    let d = dir("short");
+    let (r, out, json) = run("reconstruct", &d, &(needed - 8).to_string());
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(r.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("one-way edges") && stderr.contains("(--memory)"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(!out.exists() && !json.exists());
 }
 
 #[test]

@@ -223,11 +223,30 @@ pub fn grid_scratch_bytes(n: usize) -> usize {
 /// reverse table's cursor (4 per point). Keep in step with
 /// [`try_neighbours_in`] and `reverse_edges_in`.
 pub fn neighbours_bytes(n: usize, k: usize) -> (usize, usize) {
-    let nk = n.saturating_mul(k);
-    let knn = padded_bytes::<u32>(nk);
-    let rev = padded_bytes::<u32>(n.saturating_add(1)).saturating_add(padded_bytes::<u32>(nk));
+    neighbours_bytes_for(n, k, n.saturating_mul(k), true)
+}
+
+/// [`neighbours_bytes`] with `reverse_edges` reverse-only edges (the real count
+/// instead of the worst case) and, unless `searched`, a k-NN table given by the
+/// caller (not in the arena, no search scratch).
+pub fn neighbours_bytes_for(
+    n: usize,
+    k: usize,
+    reverse_edges: usize,
+    searched: bool,
+) -> (usize, usize) {
+    let (knn, search) = if searched {
+        (
+            padded_bytes::<u32>(n.saturating_mul(k)),
+            grid_scratch_bytes(n),
+        )
+    } else {
+        (0, 0)
+    };
+    let rev =
+        padded_bytes::<u32>(n.saturating_add(1)).saturating_add(padded_bytes::<u32>(reverse_edges));
     let during_rev = rev.saturating_add(padded_bytes::<u32>(n));
-    let peak = knn.saturating_add(grid_scratch_bytes(n).max(during_rev));
+    let peak = knn.saturating_add(search.max(during_rev));
     (peak, knn.saturating_add(rev))
 }
 
@@ -239,12 +258,25 @@ pub fn try_neighbours_in<'a>(
     k: usize,
     progress: &mut dyn Progress,
 ) -> Result<Neighbours<'a>> {
+    try_neighbours_checked_in(arena, points, k, &|_| Ok(()), progress)
+}
+
+/// [`try_neighbours_in`], calling `room` with the number of reverse-only edges
+/// once they are counted, before their table is allocated: an error from it
+/// ends the search.
+pub fn try_neighbours_checked_in<'a>(
+    arena: &'a Arena,
+    points: &[V3],
+    k: usize,
+    room: &dyn Fn(usize) -> Result<()>,
+    progress: &mut dyn Progress,
+) -> Result<Neighbours<'a>> {
     let n = points.len();
     usable_k(k, n)?;
     tick(progress, Stage::Neighbours, 0, n as u64)?;
     let rows = try_knn_rows_in(arena, points, k, Stage::Neighbours, progress)?;
     let knn: &'a [u32] = rows.knn;
-    let (rev_start, rev) = reverse_edges_in(arena, knn, k)?;
+    let (rev_start, rev) = reverse_edges_in(arena, knn, k, room)?;
 
     tick(progress, Stage::Neighbours, n as u64, n as u64)?;
     Ok(Neighbours {
@@ -399,6 +431,7 @@ pub fn try_neighbours_from_in<'a>(
     knn: &'a [u32],
     k: usize,
     linear_scans: u32,
+    room: &dyn Fn(usize) -> Result<()>,
     progress: &mut dyn Progress,
 ) -> Result<Neighbours<'a>> {
     let n = points.len();
@@ -413,7 +446,7 @@ pub fn try_neighbours_from_in<'a>(
         }
     }
     tick(progress, Stage::Neighbours, 0, n as u64)?;
-    let (rev_start, rev) = reverse_edges_in(arena, knn, k)?;
+    let (rev_start, rev) = reverse_edges_in(arena, knn, k, room)?;
     tick(progress, Stage::Neighbours, n as u64, n as u64)?;
     Ok(Neighbours {
         k,
@@ -608,7 +641,12 @@ fn build_grid<'s>(
 }
 
 /// Build the reverse-only edge table: two passes over the k-NN rows, O(n k^2).
-fn reverse_edges_in<'a>(arena: &'a Arena, knn: &[u32], k: usize) -> Result<(&'a [u32], &'a [u32])> {
+fn reverse_edges_in<'a>(
+    arena: &'a Arena,
+    knn: &[u32],
+    k: usize,
+    room: &dyn Fn(usize) -> Result<()>,
+) -> Result<(&'a [u32], &'a [u32])> {
     let n = knn.len() / k;
     let rev_start = arena.try_alloc_slice::<u32>(n + 1, 0)?;
     let is_mutual = |i: usize, j: usize| knn[j * k..(j + 1) * k].contains(&(i as u32));
@@ -623,6 +661,7 @@ fn reverse_edges_in<'a>(arena: &'a Arena, knn: &[u32], k: usize) -> Result<(&'a 
         rev_start[i + 1] += rev_start[i];
     }
     let total = rev_start[n] as usize;
+    room(total)?;
     let rev = arena.try_alloc_slice::<u32>(total, 0)?;
     // Fill in increasing i, so each list comes out ascending. `cursor` reuses the
     // scratch end of the arena.

@@ -22,7 +22,7 @@ pub mod quadric;
 pub mod split;
 
 use crate::arena::Arena;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::math::V3;
 use crate::params::Params;
 use crate::progress::{tick, Progress, Stage};
@@ -105,25 +105,58 @@ impl<'a> Clustering<'a> {
     }
 }
 
+/// What a run needs from the arena's position at its start, in bytes (a
+/// multiple of the granule): `(points, params, reverse-only edges, searched)`,
+/// as [`crate::budget`] bounds it for the whole run.
+pub(crate) type Need = fn(usize, &Params, usize, bool) -> usize;
+
 /// Checks the input, then runs stages 1-5 in `arena` (stage 1 from `known`
-/// rows when given: borrowed, not searched again).
+/// rows when given: borrowed, not searched again). `need` is what the whole
+/// run takes from the arena's position at the start: checked against the
+/// arena's capacity before any work (with no reverse-only edges, the least
+/// any cloud needs) and again once the neighbour graph's reverse-only edges
+/// are counted, before their table is allocated; either check failing is
+/// [`Error::ArenaTooSmall`].
 pub(crate) fn try_clustering_in<'a>(
     arena: &'a Arena,
     points: &[V3],
     normals: Option<&[V3]>,
     known: Option<&Rows<'a>>,
     params: &Params,
+    need: Need,
     progress: &mut dyn Progress,
 ) -> Result<Clustering<'a>> {
     tick(progress, Stage::Validate, 0, 1)?;
     let bounds = validate::check(points, normals, params)?;
     tick(progress, Stage::Validate, 1, 1)?;
-    let neighbours = match known {
-        Some(r) => {
-            knn::try_neighbours_from_in(arena, points, r.knn, params.k, r.linear_scans, progress)?
+    let (n, searched, start) = (points.len(), known.is_none(), arena.used());
+    let fits = |reverse_edges: Option<usize>| -> Result<()> {
+        let bytes = need(n, params, reverse_edges.unwrap_or(0), searched);
+        let end = start.saturating_add(bytes);
+        if end > arena.capacity() {
+            return Err(Error::ArenaTooSmall {
+                needed: end.saturating_add(crate::arena::GRANULE - 1),
+                capacity: arena.capacity(),
+                reverse_edges,
+            });
         }
-        None => knn::try_neighbours_in(arena, points, params.k, progress)?,
+        Ok(())
     };
+    fits(None)?;
+    let room = |reverse_edges: usize| fits(Some(reverse_edges));
+    let neighbours = match known {
+        Some(r) => knn::try_neighbours_from_in(
+            arena,
+            points,
+            r.knn,
+            params.k,
+            r.linear_scans,
+            &room,
+            progress,
+        )?,
+        None => knn::try_neighbours_checked_in(arena, points, params.k, &room, progress)?,
+    };
+
     let peak_neighbours = arena.peak();
     let planes = quadric::try_planes_in(arena, points, normals, &neighbours, progress)?;
     let peak_quadrics = arena.peak();

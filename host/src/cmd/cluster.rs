@@ -1,7 +1,7 @@
 //! `vsaqem cluster`: the input points coloured by cluster, plus the generators.
 
 use crate::args::{CleanArgs, ClusterArgs, InputArgs, MemoryArgs};
-use crate::clean::{read_and_clean, Cleaned};
+use crate::clean::{needed_with_clean, read_and_clean, Cleaned, RunBytes};
 use crate::input::Prepared;
 use crate::io::{publish, write_atomic, write_points_ply};
 use crate::json;
@@ -48,10 +48,14 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
         &cmd.input,
         &cmd.memory,
         &params,
-        vsaqem_core::cluster_bytes,
+        RunBytes {
+            most: vsaqem_core::cluster_bytes,
+            least: vsaqem_core::cluster_bytes_for,
+        },
         &mut clock,
     )?;
     let arena_reserved = buf.len();
+    let searched = rows.is_none();
     let arena = vsaqem_core::Arena::new(&mut buf);
     let out = input
         .run_core(
@@ -61,7 +65,10 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
             &params,
             &mut clock,
         )
-        .map_err(|e| format!("{}: {e}", input.name))?;
+        .map_err(|e| match e {
+            vsaqem_core::Error::ArenaTooSmall { .. } => format!("{}: {e} (--memory)", input.name),
+            e => format!("{}: {e}", input.name),
+        })?;
     clock.time("write", || write_clusters(&cmd.output, &input, &out))?;
     let diag = out.bounds.diag;
     let report = ClusterReport {
@@ -76,6 +83,16 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
             &clock,
             out.stats.peak_clustering,
             arena_reserved,
+            needed_with_clean(
+                vsaqem_core::cluster_bytes_for(
+                    input.points.len(),
+                    &params,
+                    out.stats.reverse_edges as usize,
+                    searched,
+                ),
+                points_read,
+                &params,
+            ),
             &cmd.output,
         ),
     };

@@ -1,7 +1,7 @@
 //! `vsaqem reconstruct`: point cloud to mesh (PLY, OBJ or OFF by extension).
 
 use crate::args::{CleanArgs, ClusterArgs, InputArgs, MemoryArgs};
-use crate::clean::{read_and_clean, Cleaned};
+use crate::clean::{needed_with_clean, read_and_clean, Cleaned, RunBytes};
 use crate::input::Prepared;
 use crate::io::{publish, write_atomic, write_mesh, MeshFormat};
 use crate::json;
@@ -136,7 +136,10 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
         &cmd.input,
         &cmd.memory,
         &params,
-        vsaqem_core::arena_bytes,
+        RunBytes {
+            most: vsaqem_core::arena_bytes,
+            least: vsaqem_core::reconstruct_bytes_for,
+        },
         &mut clock,
     )?;
     // The mesh needs only the points in core coordinates and the frame: the
@@ -145,6 +148,7 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
     input.original = Vec::new();
     input.order = None;
     let arena_reserved = buf.len();
+    let searched = rows.is_none();
     let arena = vsaqem_core::Arena::new(&mut buf);
     let out = input.run_core(
         vsaqem_core::reconstruct_with_rows,
@@ -159,6 +163,9 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
             input.name,
             params.mesh_capacity_per_cluster()
         ),
+        Error::ArenaTooSmall { .. } | Error::ArenaTooSmallForMeshing { .. } => {
+            format!("{}: {e} (--memory)", input.name)
+        }
         e => format!("{}: {e}", input.name),
     })?;
     clock.time("write", || write_output(&cmd.output, format, &input, &out))?;
@@ -171,7 +178,22 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
         cap: params.cluster_cap().min(input.points.len() as u32),
         split_rounds: params.split_rounds,
         meshing: out.meshing,
-        run: RunReport::new(&clock, out.meshing.peak, arena_reserved, &cmd.output),
+        run: RunReport::new(
+            &clock,
+            out.meshing.peak,
+            arena_reserved,
+            needed_with_clean(
+                vsaqem_core::reconstruct_bytes_for(
+                    input.points.len(),
+                    &params,
+                    out.clustered.stats.reverse_edges as usize,
+                    searched,
+                ),
+                points_read,
+                &params,
+            ),
+            &cmd.output,
+        ),
     };
     if let Some((why, true)) = tolerance_unmet(&report.cluster, report.cap, report.split_rounds) {
         eprintln!(
