@@ -83,8 +83,8 @@ pub fn read_and_clean(
 
 /// The least `--memory` a run on `points_read` points would have taken, when
 /// `run` bytes were enough for the command itself on the cleaned points (core's
-/// bound for their neighbour graph): [`with_clean`] with cleaning's table
-/// outside the arena, as [`filter_input`] keeps it.
+/// bound for their neighbour graph), and what the pre-passes need, cleaning
+/// with its k-NN table outside the arena (where the host keeps it).
 pub fn needed_with_clean(run: usize, points_read: usize, params: &Params) -> usize {
     with_clean(run, points_read, params, true)
 }
