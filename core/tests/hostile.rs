@@ -215,7 +215,7 @@ fn duplicate_heavy_clouds_cluster_without_nan() {
 }
 
 #[test]
-fn every_arena_size_gives_a_result_or_the_exhaustion_error() {
+fn every_arena_size_gives_a_result_or_a_memory_error() {
     let p = sphere(600);
     let params = Params {
         clusters: 30,
@@ -229,6 +229,12 @@ fn every_arena_size_gives_a_result_or_the_exhaustion_error() {
         match cluster(&arena, &p, None, &params, &mut Silent) {
             Ok(_) => ok += 1,
             Err(Error::Exhausted(e)) => assert!(e.available < e.requested, "{size}: {e:?}"),
+            Err(Error::ArenaTooSmall {
+                needed, capacity, ..
+            }) => assert!(
+                capacity < needed && needed <= need,
+                "{size}: {needed} {capacity}"
+            ),
             Err(e) => panic!("{size}: {e}"),
         }
     }
