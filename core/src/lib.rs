@@ -196,7 +196,11 @@ pub struct Reconstruction<'a> {
 /// `arena` already holds, so a buffer of that size never runs out. A candidate
 /// graph denser than the meshing capacity allows
 /// ([`Params::mesh_bytes_per_cluster`]) fails with [`Error::MeshCapacity`], even in
-/// a larger buffer: the outcome never depends on the buffer's size.
+/// a larger buffer: a buffer of that size or more always gives the same outcome.
+/// A smaller one is checked against what this cloud needs
+/// ([`reconstruct_bytes_for`]; [`Error::ArenaTooSmall`] when short) and then
+/// gives the same mesh, or [`Error::ArenaTooSmallForMeshing`] where meshing
+/// needed more than its capacity.
 pub fn reconstruct<'a>(
     arena: &'a Arena,
     points: &[V3],

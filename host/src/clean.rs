@@ -44,6 +44,7 @@ impl KnnTable {
 /// What a command needs from the arena for `(points, params)`: at most (the
 /// default buffer), and `(points, params, reverse-only edges, searched)` once
 /// the neighbour graph is known (its least with no reverse-only edges).
+#[derive(Clone, Copy)]
 pub struct RunBytes {
     /// The worst case, e.g. `vsaqem_core::arena_bytes`.
     pub most: fn(usize, &Params) -> usize,
@@ -68,25 +69,35 @@ pub fn read_and_clean(
     // is off or drops points, or smoothing moves them.
     let searched = !params.cleans() || params.smooth_rounds > 0;
     let least = with_clean((run.least)(n, params, 0, searched), n, params, true);
-    let points_read = n;
-    let mut buf = arena_buffer(memory.arena_size(needed, least, points_read)?);
+    let mut buf = arena_buffer(memory.arena_size(needed, least, n)?);
     let (input, stats, rows) =
         clean_input(input, params, &mut buf, clock).inspect_err(|_| clock.finish())?;
     Ok(Cleaned {
         input,
-        points_read,
+        points_read: n,
         stats,
         buf,
         rows,
     })
 }
 
-/// The least `--memory` a run on `points_read` points would have taken, when
-/// `run` bytes were enough for the command itself on the cleaned points (core's
-/// bound for their neighbour graph), and what the pre-passes need, cleaning
-/// with its k-NN table outside the arena (where the host keeps it).
-pub fn needed_with_clean(run: usize, points_read: usize, params: &Params) -> usize {
-    with_clean(run, points_read, params, true)
+impl RunBytes {
+    /// The least `--memory` a run on `cleaned`'s points would have taken, with
+    /// `reverse_edges` one-way edges in their neighbour graph, searched by core
+    /// or not: the command's bound for that graph, and what the pre-passes
+    /// need on the points read, cleaning with its k-NN table outside the arena
+    /// (where the host keeps it).
+    pub fn needed(
+        self,
+        cleaned: &Prepared,
+        points_read: usize,
+        params: &Params,
+        reverse_edges: usize,
+        searched: bool,
+    ) -> usize {
+        let run = (self.least)(cleaned.points.len(), params, reverse_edges, searched);
+        with_clean(run, points_read, params, true)
+    }
 }
 
 /// The arena a run on `n` points needs when `run` bytes are enough for the

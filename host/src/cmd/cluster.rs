@@ -1,7 +1,7 @@
 //! `vsaqem cluster`: the input points coloured by cluster, plus the generators.
 
 use crate::args::{CleanArgs, ClusterArgs, InputArgs, MemoryArgs};
-use crate::clean::{needed_with_clean, read_and_clean, Cleaned, RunBytes};
+use crate::clean::{read_and_clean, Cleaned, RunBytes};
 use crate::input::Prepared;
 use crate::io::{publish, write_atomic, write_points_ply};
 use crate::json;
@@ -38,22 +38,17 @@ pub struct Cmd {
 pub fn run(cmd: &Cmd) -> Result<(), String> {
     let mut clock = StageClock::new(!cmd.quiet).with_threads(cmd.memory.threads());
     let params = cmd.clean.apply(cmd.cluster.params());
+    let bytes = RunBytes {
+        most: vsaqem_core::cluster_bytes,
+        least: vsaqem_core::cluster_bytes_for,
+    };
     let Cleaned {
         input,
         points_read,
         stats,
         mut buf,
         rows,
-    } = read_and_clean(
-        &cmd.input,
-        &cmd.memory,
-        &params,
-        RunBytes {
-            most: vsaqem_core::cluster_bytes,
-            least: vsaqem_core::cluster_bytes_for,
-        },
-        &mut clock,
-    )?;
+    } = read_and_clean(&cmd.input, &cmd.memory, &params, bytes, &mut clock)?;
     let arena_reserved = buf.len();
     let searched = rows.is_none();
     let arena = vsaqem_core::Arena::new(&mut buf);
@@ -83,15 +78,12 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
             &clock,
             out.stats.peak_clustering,
             arena_reserved,
-            needed_with_clean(
-                vsaqem_core::cluster_bytes_for(
-                    input.points.len(),
-                    &params,
-                    out.stats.reverse_edges as usize,
-                    searched,
-                ),
+            bytes.needed(
+                &input,
                 points_read,
                 &params,
+                out.stats.reverse_edges as usize,
+                searched,
             ),
             &cmd.output,
         ),

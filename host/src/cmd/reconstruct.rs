@@ -1,7 +1,7 @@
 //! `vsaqem reconstruct`: point cloud to mesh (PLY, OBJ or OFF by extension).
 
 use crate::args::{CleanArgs, ClusterArgs, InputArgs, MemoryArgs};
-use crate::clean::{needed_with_clean, read_and_clean, Cleaned, RunBytes};
+use crate::clean::{read_and_clean, Cleaned, RunBytes};
 use crate::input::Prepared;
 use crate::io::{publish, write_atomic, write_mesh, MeshFormat};
 use crate::json;
@@ -126,22 +126,17 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
         MeshFormat::from_path(&cmd.output).map_err(|e| format!("{}: {e}", cmd.output.display()))?;
     let mut clock = StageClock::new(!cmd.quiet).with_threads(cmd.memory.threads());
     let params = cmd.params();
+    let bytes = RunBytes {
+        most: vsaqem_core::arena_bytes,
+        least: vsaqem_core::reconstruct_bytes_for,
+    };
     let Cleaned {
         mut input,
         points_read,
         stats,
         mut buf,
         rows,
-    } = read_and_clean(
-        &cmd.input,
-        &cmd.memory,
-        &params,
-        RunBytes {
-            most: vsaqem_core::arena_bytes,
-            least: vsaqem_core::reconstruct_bytes_for,
-        },
-        &mut clock,
-    )?;
+    } = read_and_clean(&cmd.input, &cmd.memory, &params, bytes, &mut clock)?;
     // The mesh needs only the points in core coordinates and the frame: the
     // positions as read (24 bytes a point) and the input order go before the
     // run, so they are not resident beside the arena.
@@ -182,15 +177,12 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
             &clock,
             out.meshing.peak,
             arena_reserved,
-            needed_with_clean(
-                vsaqem_core::reconstruct_bytes_for(
-                    input.points.len(),
-                    &params,
-                    out.clustered.stats.reverse_edges as usize,
-                    searched,
-                ),
+            bytes.needed(
+                &input,
                 points_read,
                 &params,
+                out.clustered.stats.reverse_edges as usize,
+                searched,
             ),
             &cmd.output,
         ),
