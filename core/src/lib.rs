@@ -95,6 +95,7 @@ extern crate std;
 pub mod arena;
 pub mod budget;
 pub mod error;
+pub mod hint;
 pub mod math;
 pub mod parallel;
 pub mod params;
