@@ -67,7 +67,7 @@ fn cap_bound(n: usize, params: &Params) -> usize {
 
 /// A buffer of `bound` usable bytes, whatever its alignment: the arena skips
 /// up to 7 bytes to start on a granule boundary.
-fn buffer_for(bound: usize) -> usize {
+pub(crate) fn buffer_for(bound: usize) -> usize {
     bound.saturating_add(GRANULE - 1)
 }
 

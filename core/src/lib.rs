@@ -324,7 +324,7 @@ fn mesh_round_within<T>(arena: &Arena, end: usize, round: impl FnOnce() -> Resul
         }),
         // The buffer ended below the ceiling: a larger one would have gone on.
         (Err(Error::Exhausted(_)), false) => Err(Error::ArenaTooSmallForMeshing {
-            needed: end.saturating_add(arena::GRANULE - 1),
+            needed: budget::buffer_for(end),
             capacity: arena.capacity(),
         }),
         (other, _) => other,

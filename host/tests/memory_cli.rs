@@ -95,7 +95,7 @@ fn the_bound_itself_is_enough_and_the_output_does_not_depend_on_the_budget() {
 }
 
 #[test]
-fn the_clouds_own_need_is_reported_enough_and_one_byte_less_is_refused_after_the_search() {
+fn the_clouds_own_need_is_reported_enough_and_a_granule_less_is_refused_after_the_search() {
     let worst = arena_bytes(4000, &params());
     let d = dir("worst");
     let (r, out, json) = run("reconstruct", &d, &worst.to_string());
@@ -113,8 +113,9 @@ fn the_clouds_own_need_is_reported_enough_and_one_byte_less_is_refused_after_the
     let (r, out, _) = run("reconstruct", &d, &needed.to_string());
     assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
     assert_eq!(std::fs::read(&out).unwrap(), mesh);
-    // Less passes the check before any work (it is above the least), and is
-    // refused once the one-way edges are counted, naming the need: no output.
+    // A granule less (the need includes 7 bytes of alignment slack) passes the
+    // check before any work (it is above the least), and is refused once the
+    // one-way edges are counted, naming the need: no output.
     let d = dir("short");
     let (r, out, json) = run("reconstruct", &d, &(needed - 8).to_string());
     let stderr = String::from_utf8_lossy(&r.stderr);

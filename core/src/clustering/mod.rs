@@ -135,7 +135,7 @@ pub(crate) fn try_clustering_in<'a>(
         let end = start.saturating_add(bytes);
         if end > arena.capacity() {
             return Err(Error::ArenaTooSmall {
-                needed: end.saturating_add(crate::arena::GRANULE - 1),
+                needed: crate::budget::buffer_for(end),
                 capacity: arena.capacity(),
                 reverse_edges,
             });
