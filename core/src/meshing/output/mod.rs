@@ -28,6 +28,7 @@
 //! edges) scratch. Cost: linear in faces and edges.
 
 pub mod densify;
+mod gaps;
 mod holes;
 mod insert;
 mod orient;
@@ -623,6 +624,29 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
         };
         stats.vertices = nv as u32;
         stats.faces = nf as u32;
+        // Faces over gaps in the data (a tunnel the clusters straddle), by the
+        // cluster whose walk found the gap's rim: the widest gap of each
+        // cluster without a far point gets a generator after those.
+        let gap = s.try_alloc_slice::<(f32, u32)>(members.len(), (0.0, u32::MAX))?;
+        if max_distance.is_finite() {
+            gaps::faces_over_gaps(
+                points,
+                nb,
+                planes,
+                members,
+                vertices,
+                triangles,
+                vertex_cluster,
+                gaps::GAP_SPAN * max_distance,
+                |cl, e, p| {
+                    if let Some(g) = gap.get_mut(cl as usize) {
+                        if e > g.0 {
+                            *g = (e, p);
+                        }
+                    }
+                },
+            );
+        }
         let far = {
             let mut far = 0usize;
             for j in 0..members.len() {
@@ -643,15 +667,46 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
                         Some((x, _)) if x >= e => w,
                         _ => Some((e, i)),
                     });
-                if let Some((e, i)) = worst {
-                    if e > max_distance {
+                match worst {
+                    Some((e, i)) if e > max_distance => {
                         if let Some(slot) = uncovered.get_mut(far) {
                             *slot = i;
                         }
                         far += 1;
+                        // This cluster's far point comes first.
+                        if let Some(g) = gap.get_mut(j) {
+                            g.1 = u32::MAX;
+                        }
                     }
+                    _ => {}
                 }
             }
+            // Then the rims of gaps, widest first, each point once.
+            let listed = far.min(uncovered.len());
+            far += s.scratch(|t| -> Result<usize> {
+                let taken = t.try_alloc_copy::<u32>(&uncovered[..listed])?;
+                taken.sort_unstable();
+                let gap = &mut gap[..];
+                // Each point once (its widest gap), none already listed.
+                gap.sort_unstable_by(|a, b| a.1.cmp(&b.1).then(b.0.total_cmp(&a.0)));
+                let mut prev = u32::MAX;
+                for g in gap.iter_mut() {
+                    let p = g.1;
+                    if p == prev || taken.binary_search(&p).is_ok() {
+                        g.1 = u32::MAX;
+                    }
+                    prev = p;
+                }
+                gap.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+                let mut more = 0;
+                for &(_, p) in gap.iter().filter(|g| g.1 != u32::MAX) {
+                    if let Some(slot) = uncovered.get_mut(listed + more) {
+                        *slot = p;
+                    }
+                    more += 1;
+                }
+                Ok(more)
+            })?;
             stats.distance = summarise(d, diag);
             far as u32
         };
