@@ -22,7 +22,7 @@
 
 use crate::clustering::knn::Neighbours;
 use crate::clustering::quadric::Planes;
-use crate::math::{dot, norm, sub, V3};
+use crate::math::{dist2, dot, norm, sub, V3};
 use crate::meshing::candidates::Members;
 
 /// How far beyond the refinement distance a face must be from the data to
@@ -53,21 +53,16 @@ const SAMPLES: [[f32; 3]; 7] = [
 /// surface: a walk crosses a cluster or two).
 const STEPS: usize = 256;
 
-fn d2(a: V3, b: V3) -> f32 {
-    let d = sub(a, b);
-    dot(d, d)
-}
-
 /// The point the greedy walk from `start` towards `q` ends at, and its squared
 /// distance to `q`.
 fn descend(points: &[V3], nb: &Neighbours, start: u32, q: V3) -> Option<(f32, u32)> {
     let mut at = start;
-    let mut best = d2(*points.get(at as usize)?, q);
+    let mut best = dist2(*points.get(at as usize)?, q);
     for _ in 0..STEPS {
         let mut next = at;
         for j in nb.symmetric(at as usize) {
             if let Some(&p) = points.get(j as usize) {
-                let e = d2(p, q);
+                let e = dist2(p, q);
                 if e < best || (e == best && j < next) {
                     best = e;
                     next = j;
@@ -126,12 +121,9 @@ pub(super) fn faces_over_gaps(
                 .zip(w)
                 .filter(|&(_, x)| x == heaviest)
                 .filter_map(|(&v, _)| vertex_cluster.get(v as usize))
+                .filter(|&&cl| (cl as usize) < members.len())
                 .filter_map(|&cl| {
-                    let (from, to) = (
-                        *members.start.get(cl as usize)?,
-                        *members.start.get(cl as usize + 1)?,
-                    );
-                    let first = *members.list.get(from as usize..to as usize)?.first()?;
+                    let first = *members.of(cl as usize).first()?;
                     let (e, p) = descend(points, nb, first, q)?;
                     Some((e, p, cl))
                 })
@@ -228,8 +220,9 @@ mod tests {
         let nb = try_neighbours_in(&arena, points, 12, &mut Silent).unwrap();
         let planes = try_planes_in(&arena, points, None, &nb, &mut Silent).unwrap();
         let nearest = |v: V3| {
-            (0..points.len() as u32)
-                .min_by(|&a, &b| d2(points[a as usize], v).total_cmp(&d2(points[b as usize], v)))
+            (0..points.len() as u32).min_by(|&a, &b| {
+                dist2(points[a as usize], v).total_cmp(&dist2(points[b as usize], v))
+            })
         };
         let list: Vec<u32> = face.iter().map(|&v| nearest(v).unwrap()).collect();
         let members = Members {
@@ -275,7 +268,7 @@ mod tests {
         let far = |q: V3| {
             points
                 .iter()
-                .map(|&p| d2(p, q))
+                .map(|&p| dist2(p, q))
                 .fold(f32::INFINITY, f32::min)
                 .sqrt()
         };

@@ -667,8 +667,8 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
                         Some((x, _)) if x >= e => w,
                         _ => Some((e, i)),
                     });
-                match worst {
-                    Some((e, i)) if e > max_distance => {
+                if let Some((e, i)) = worst {
+                    if e > max_distance {
                         if let Some(slot) = uncovered.get_mut(far) {
                             *slot = i;
                         }
@@ -678,7 +678,6 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
                             g.1 = u32::MAX;
                         }
                     }
-                    _ => {}
                 }
             }
             // Then the rims of gaps, widest first, each point once.
