@@ -312,6 +312,8 @@ pub(super) fn densify<'b, S: Alloc<'b>>(
                     v as u32,
                     &mesh.home[..v + 1],
                     tol,
+                    // At a point of the data, in its nearest face.
+                    &|_| true,
                 ) else {
                     continue;
                 };

@@ -30,7 +30,10 @@ pub(super) struct Inserted {
 /// each split in two. A split that would make a degenerate face (edge or area
 /// below `tol`) or turn a face over (its normal against the face it replaces)
 /// is not made, nor one whose new faces would cross a face of the mesh or fold
-/// onto a neighbour ([`untangled`]). Windings are kept, so orientation and edge-manifoldness hold.
+/// onto a neighbour ([`untangled`]), or that `joins` refuses (a cluster of
+/// one piece of the data put into a face of another, across the empty space
+/// between them). Windings are kept, so orientation and edge-manifoldness
+/// hold.
 /// `faces` must have room for two more faces per insertion; clusters beyond
 /// that room are left out. Cost: O(faces) per skipped cluster.
 pub(super) fn insert_skipped<'b, S: Alloc<'b>>(
@@ -40,6 +43,7 @@ pub(super) fn insert_skipped<'b, S: Alloc<'b>>(
     generators: &[V3],
     members: &Members,
     tol: f32,
+    joins: &dyn Fn(&[[u32; 3]]) -> bool,
 ) -> Result<(usize, Inserted)> {
     let m = generators.len();
     s.scratch(|t| {
@@ -69,8 +73,9 @@ pub(super) fn insert_skipped<'b, S: Alloc<'b>>(
                     nearest = Some((f, d2, bary));
                 }
             }
-            let grown = nearest
-                .and_then(|(f, _, bary)| split_at(faces, nf, f, bary, j as u32, generators, tol));
+            let grown = nearest.and_then(|(f, _, bary)| {
+                split_at(faces, nf, f, bary, j as u32, generators, tol, joins)
+            });
             match grown {
                 Some(n) => {
                     nf = n;
@@ -91,9 +96,11 @@ pub(super) fn insert_skipped<'b, S: Alloc<'b>>(
 /// each of its faces split in two. Refused: a split that makes a degenerate
 /// face (edge or area below `tol`), turns a face over (its normal against the
 /// face it replaces), or whose new faces cross a face of the mesh or fold onto
-/// a neighbour ([`untangled`]), and one with no room for the two new faces in
-/// `faces`. Windings are kept, so orientation and edge-manifoldness hold.
+/// a neighbour ([`untangled`]) or that `joins` refuses, and one with no room
+/// for the two new faces in `faces`. Windings are kept, so orientation and
+/// edge-manifoldness hold.
 /// Returns the new face count, or `None` when nothing was split. O(faces).
+#[allow(clippy::too_many_arguments)]
 pub(super) fn split_at(
     faces: &mut [[u32; 3]],
     nf: usize,
@@ -102,6 +109,7 @@ pub(super) fn split_at(
     v: u32,
     positions: &[V3],
     tol: f32,
+    joins: &dyn Fn(&[[u32; 3]]) -> bool,
 ) -> Option<usize> {
     if f >= nf || nf + 2 > faces.len() {
         return None;
@@ -151,9 +159,13 @@ pub(super) fn split_at(
             &on_edge[..count],
             &halves[..2 * count],
             positions,
-        );
-    let face_ok =
-        || sound(&in_face, faces[f]) && untangled(&faces[..nf], &[f], &in_face, positions);
+        )
+        && joins(&halves[..2 * count]);
+    let face_ok = || {
+        sound(&in_face, faces[f])
+            && untangled(&faces[..nf], &[f], &in_face, positions)
+            && joins(&in_face)
+    };
     let mut nf = nf;
     if edge_ok && (bary[k] < EDGE_BARYCENTRIC || !face_ok()) {
         for i in 0..count {

@@ -181,9 +181,10 @@ pub(super) fn drop_bubbles<'b, S: Alloc<'b>>(
 /// and the surface keeps its genus (one tube between two pieces makes no
 /// handle). Of each bubble's facing pairs the eight nearest are tried; a tube
 /// is made only when it shares no vertex with either face's other corners, its
-/// faces are not degenerate and it crosses or folds onto nothing
-/// ([`untangled`]). Faces are appended from `nf` while room is left below
-/// `cap`. Returns the face count and the tubes made. O(B F) per bubble of B
+/// faces are not degenerate, it crosses or folds onto nothing ([`untangled`])
+/// and `joins` takes its faces (not when it would join one piece of the data
+/// to another across the empty space between them). Faces are appended from
+/// `nf` while room is left below `cap`. Returns the face count and the tubes made. O(B F) per bubble of B
 /// faces.
 pub(super) fn join_bubbles<'b, S: Alloc<'b>>(
     s: &S,
@@ -192,6 +193,7 @@ pub(super) fn join_bubbles<'b, S: Alloc<'b>>(
     cap: usize,
     generators: &[V3],
     tol: f32,
+    joins: &dyn Fn(&[[u32; 3]]) -> bool,
 ) -> Result<(usize, u32)> {
     s.scratch(|t| {
         let Pieces { root, bubble } = Pieces::try_new_in(t, &faces[..nf])?;
@@ -252,7 +254,7 @@ pub(super) fn join_bubbles<'b, S: Alloc<'b>>(
                     let [p, q, w] = f.map(at);
                     degenerate(p, q, w, tol)
                 });
-                if flat || !untangled(&faces[..nf], &[fa, fb], &tube, generators) {
+                if flat || !untangled(&faces[..nf], &[fa, fb], &tube, generators) || !joins(&tube) {
                     continue;
                 }
                 faces[fa] = tube[0];

@@ -113,3 +113,63 @@ fn an_ear_never_repeats_an_existing_edge_nor_stacks_onto_the_mesh() {
     assert_eq!((filled.holes, filled.faces, filled.left), (0, 0, 1));
     assert_eq!(out.len(), 2);
 }
+
+/// A 6 x 6 grid of points, spacing 0.1, at height `z` and offset `x0`.
+fn patch(x0: f32, z: f32) -> Vec<V3> {
+    (0..36)
+        .map(|i| [x0 + (i % 6) as f32 * 0.1, (i / 6) as f32 * 0.1, z])
+        .collect()
+}
+
+#[test]
+fn clusters_are_in_one_piece_of_the_data_only_when_their_points_are_linked() {
+    use crate::clustering::knn::try_neighbours_in;
+    use crate::progress::Silent;
+    // Two patches 1 apart; cluster 0 and 1 split the first, cluster 2 is the
+    // second, cluster 3 has no points.
+    let mut points = patch(0.0, 0.0);
+    points.extend(patch(2.0, 0.0));
+    let list: Vec<u32> = (0..72).collect();
+    let members = Members {
+        start: &[0, 18, 36, 72, 72],
+        list: &list,
+    };
+    let mut buf = vec![MaybeUninit::uninit(); 1 << 20];
+    let arena = Arena::new(&mut buf);
+    let nb = try_neighbours_in(&arena, &points, 8, &mut Silent).unwrap();
+    let piece = data_pieces(&arena, &points, &nb, &members, &[0, 1, 2, 3], 4).unwrap();
+    assert_eq!(piece, &[0, 0, 2, 3]);
+    // A merged cluster lies in its representative's piece.
+    let piece = data_pieces(&arena, &points, &nb, &members, &[0, 1, 2, 2], 4).unwrap();
+    assert_eq!(piece, &[0, 0, 2, 2]);
+}
+
+#[test]
+fn a_skipped_cluster_goes_into_the_mesh_only_where_joins_allows() {
+    // The octahedron and a skipped cluster 6 just above one of its faces:
+    // inserted when allowed, left out (faces untouched) when `joins` refuses
+    // faces with it.
+    let (mut v, f) = octahedron();
+    v.push([0.3, 0.3, 0.5]);
+    let list: Vec<u32> = (0..7).collect();
+    let members = Members {
+        start: &[0, 1, 2, 3, 4, 5, 6, 7],
+        list: &list,
+    };
+    let run = |joins: &dyn Fn(&[[u32; 3]]) -> bool| {
+        let mut buf = vec![MaybeUninit::uninit(); 1 << 16];
+        let arena = Arena::new(&mut buf);
+        let mut faces = f.clone();
+        faces.extend([[0; 3]; 4]);
+        let (nf, done) =
+            insert_skipped(&arena, &mut faces, f.len(), &v, &members, 1e-6, joins).unwrap();
+        (faces[..nf].to_vec(), done.clusters, done.left_out)
+    };
+    let (faces, inserted, left) = run(&|_| true);
+    assert_eq!((inserted, left), (1, 0));
+    assert!(faces.iter().any(|t| t.contains(&6)));
+    assert!(closed_and_consistent(&faces));
+    let (faces, inserted, left) = run(&|fs| fs.iter().all(|t| !t.contains(&6)));
+    assert_eq!((inserted, left), (0, 1));
+    assert_eq!(faces, f);
+}
