@@ -162,6 +162,43 @@ pub fn try_facets_per_edge_in<'a, 'b, A: Alloc<'b>>(
     Ok(count)
 }
 
+/// The piece of the data each cluster lies in (`rep.len()` clusters): two are
+/// linked when a point of one has a point of the other among its k nearest
+/// (`nb`), and a merged cluster lies in its representative's. Each piece is
+/// named by its lowest cluster; labels `>= rep.len()` are skipped. O(n k)
+/// time, `rep.len()` scratch.
+pub fn try_pieces_in<'a, 'b, A: Alloc<'b>>(
+    arena: &'a A,
+    nb: &Neighbours,
+    labels: &[u32],
+    rep: &[u32],
+) -> Result<&'a [u32]> {
+    let m = rep.len();
+    let group = |i: u32| {
+        labels
+            .get(i as usize)
+            .and_then(|&l| rep.get(l as usize))
+            .copied()
+    };
+    let piece = arena.try_alloc_slice::<u32>(m, 0)?;
+    arena.scratch(|s| -> Result<()> {
+        let mut sets = UnionFind::try_new_in(s, m)?;
+        for i in 0..labels.len() {
+            let Some(a) = group(i as u32) else { continue };
+            for &q in nb.of(i) {
+                if let Some(b) = group(q) {
+                    sets.union(a, b);
+                }
+            }
+        }
+        for (x, &r) in piece.iter_mut().zip(rep) {
+            *x = sets.find(r);
+        }
+        Ok(())
+    })?;
+    Ok(piece)
+}
+
 /// Neighbour links (a point of one cluster, a point of the other, neighbours)
 /// two clusters need to be candidate-adjacent.
 pub const MIN_LINKS: u32 = 2;

@@ -104,8 +104,8 @@ pub(crate) fn try_mesh_round_in<'a>(
         })?;
         tick(progress, Stage::Output, 0, 1)?;
         let (mesh, mesh_stats) = output::try_mesh_in(
-            arena, s, points, nb, planes, &cand, &members, selected, gens, p.open, p.moved, params,
-            diag, output, uncovered, &*progress,
+            arena, s, points, nb, planes, &cand, &members, selected, gens, p.open, p.moved,
+            p.piece, params, diag, output, uncovered, &*progress,
         )?;
         tick(progress, Stage::Output, 1, 1)?;
         Ok((

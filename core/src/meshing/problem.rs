@@ -40,6 +40,9 @@ pub(crate) struct Problem<'s> {
     /// Per cluster on the border of the data: where its vertex goes when it ends on
     /// the mesh's boundary (see [`border::try_border_clusters_in`]).
     pub moved: &'s [V3],
+    /// Per cluster: the piece of the data it lies in
+    /// ([`candidates::try_pieces_in`]).
+    pub piece: &'s [u32],
     /// The constraints and objective.
     pub selection: SelectionProblem<'s>,
 }
@@ -61,6 +64,7 @@ pub(crate) fn try_problem_in<'s, 'b, A: Alloc<'b>>(
     tick(progress, Stage::Candidates, 0, 1)?;
     let (rep, merged) = candidates::try_merge_in(s, gens, diag)?;
     let members = candidates::try_members_in(s, c.labels, rep)?;
+    let piece = candidates::try_pieces_in(s, nb, c.labels, rep)?;
     let cand = candidates::try_candidates_in(s, nb, c.labels, rep, merged, &members, gens, diag)?;
     // Clusters on the border of the data; their vertices move onto it.
     let per_edge = candidates::try_facets_per_edge_in(s, &cand)?;
@@ -136,6 +140,7 @@ pub(crate) fn try_problem_in<'s, 'b, A: Alloc<'b>>(
         fold_groups: groups.count,
         open,
         moved,
+        piece,
     })
 }
 

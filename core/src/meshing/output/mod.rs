@@ -46,7 +46,6 @@ use crate::meshing::distance::{summarise, try_point_distances_in, MeshDistance};
 use crate::meshing::fit::{mark_fixed, try_fit_vertices_in, FitStats, LAMBDA};
 use crate::params::Params;
 use crate::progress::Progress;
-use crate::union_find::UnionFind;
 
 use densify::{densify, part_of_surface, Growing};
 use holes::{fill_holes, Filled};
@@ -186,46 +185,6 @@ pub(super) fn face_normal(p: [V3; 3]) -> V3 {
     cross(sub(p[1], p[0]), sub(p[2], p[0]))
 }
 
-/// The piece of the data each of the `m` clusters lies in: clusters are
-/// linked when a point of one has a point of the other among its k nearest
-/// (`nb`); a merged cluster lies in its representative's (`rep`). Each piece
-/// is named by its lowest cluster. O(n k) time, 4 bytes per point of scratch.
-fn data_pieces<'s, 'b, S: Alloc<'b>>(
-    s: &'s S,
-    points: &[V3],
-    nb: &Neighbours,
-    members: &Members,
-    rep: &[u32],
-    m: usize,
-) -> Result<&'s [u32]> {
-    let piece = s.try_alloc_slice::<u32>(m, 0)?;
-    s.scratch(|t| -> Result<()> {
-        let label = t.try_alloc_slice::<u32>(points.len(), NO)?;
-        for j in 0..members.len() {
-            for &i in members.of(j) {
-                if let Some(l) = label.get_mut(i as usize) {
-                    *l = j as u32;
-                }
-            }
-        }
-        let mut sets = UnionFind::try_new_in(t, m)?;
-        for j in 0..members.len().min(m) {
-            for &i in members.of(j) {
-                for &q in nb.of(i as usize) {
-                    if let Some(&l) = label.get(q as usize).filter(|&&l| (l as usize) < m) {
-                        sets.union(j as u32, l);
-                    }
-                }
-            }
-        }
-        for (j, x) in piece.iter_mut().enumerate() {
-            *x = sets.find(rep.get(j).copied().unwrap_or(j as u32));
-        }
-        Ok(())
-    })?;
-    Ok(piece)
-}
-
 /// When [`try_mesh_in`] writes the mesh out.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Output {
@@ -250,7 +209,9 @@ pub enum Output {
 /// clusters with points but no face are written to the front of `uncovered`
 /// (their count is `stats.uncovered_clusters`), as far as it has room; when
 /// a distance bound is not met, the farthest point of each cluster beyond it
-/// instead (their count is `stats.far_clusters`).
+/// instead (their count is `stats.far_clusters`). Repair joins only clusters
+/// of one `piece` of the data
+/// ([`try_pieces_in`](crate::meshing::candidates::try_pieces_in)).
 #[allow(clippy::too_many_arguments)]
 pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
     out: &'o Arena<'b>,
@@ -264,6 +225,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
     generators: &[V3],
     open: &[bool],
     moved: &[V3],
+    piece: &[u32],
     params: &Params,
     diag: f32,
     output: Output,
@@ -416,7 +378,6 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
         // one piece of the data: a scan's separate pieces (an ear tip, a paw
         // seen apart from the body) are not joined across the empty space
         // between them.
-        let piece = data_pieces(s, points, nb, members, cand.rep, m)?;
         let one_piece = |f: &[[u32; 3]]| {
             let of = |c: u32| piece.get(c as usize);
             f.iter()

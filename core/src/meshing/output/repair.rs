@@ -184,8 +184,8 @@ pub(super) fn drop_bubbles<'b, S: Alloc<'b>>(
 /// faces are not degenerate, it crosses or folds onto nothing ([`untangled`])
 /// and `joins` takes its faces (not when it would join one piece of the data
 /// to another across the empty space between them). Faces are appended from
-/// `nf` while room is left below `cap`. Returns the face count and the tubes made. O(B F) per bubble of B
-/// faces.
+/// `nf` while room is left below `cap`. Returns the face count and the tubes
+/// made. O(B F) per bubble of B faces.
 pub(super) fn join_bubbles<'b, S: Alloc<'b>>(
     s: &S,
     faces: &mut [[u32; 3]],

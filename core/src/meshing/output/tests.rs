@@ -124,23 +124,20 @@ fn patch(x0: f32, z: f32) -> Vec<V3> {
 #[test]
 fn clusters_are_in_one_piece_of_the_data_only_when_their_points_are_linked() {
     use crate::clustering::knn::try_neighbours_in;
+    use crate::meshing::candidates::try_pieces_in;
     use crate::progress::Silent;
     // Two patches 1 apart; cluster 0 and 1 split the first, cluster 2 is the
     // second, cluster 3 has no points.
     let mut points = patch(0.0, 0.0);
     points.extend(patch(2.0, 0.0));
-    let list: Vec<u32> = (0..72).collect();
-    let members = Members {
-        start: &[0, 18, 36, 72, 72],
-        list: &list,
-    };
+    let labels: Vec<u32> = (0..72).map(|i| [0, 1, 2, 2][i / 18]).collect();
     let mut buf = vec![MaybeUninit::uninit(); 1 << 20];
     let arena = Arena::new(&mut buf);
     let nb = try_neighbours_in(&arena, &points, 8, &mut Silent).unwrap();
-    let piece = data_pieces(&arena, &points, &nb, &members, &[0, 1, 2, 3], 4).unwrap();
+    let piece = try_pieces_in(&arena, &nb, &labels, &[0, 1, 2, 3]).unwrap();
     assert_eq!(piece, &[0, 0, 2, 3]);
     // A merged cluster lies in its representative's piece.
-    let piece = data_pieces(&arena, &points, &nb, &members, &[0, 1, 2, 2], 4).unwrap();
+    let piece = try_pieces_in(&arena, &nb, &labels, &[0, 1, 2, 2]).unwrap();
     assert_eq!(piece, &[0, 0, 2, 2]);
 }
 
