@@ -193,14 +193,14 @@ fn round_up(bytes: usize) -> usize {
 /// Bytes a meshing round may use when clustering holds `cap` clusters at most
 /// (see [`Params::mesh_bytes_per_cluster`]): 4 per point (member lists), 60 per
 /// cluster (the per-cluster tables live at once: representatives, list starts,
-/// border flags and positions, 41 bytes; the rims of gaps the faces span and a
-/// copy of the far points, 12), `mesh_bytes_per_cluster` per cluster
-/// up to the cap the parameters ask for (`max_clusters`, or twice `clusters`),
-/// and 1 KiB (the granule rounding of some seventy allocations). Clusters beyond
-/// the asked cap exist only when the neighbour graph has more components than
-/// that, each component with a cluster of its own; they get the 60 bytes, not
-/// the per-cluster capacity, so that the budget does not assume every cloud is
-/// dust.
+/// pieces of the data, border flags and positions, 45 bytes; the rims of gaps
+/// the faces span and a copy of the far points, 12), `mesh_bytes_per_cluster`
+/// per cluster up to the cap the parameters ask for (`max_clusters`, or twice
+/// `clusters`), and 1 KiB (the granule rounding of some seventy allocations).
+/// Clusters beyond the asked cap exist only when the neighbour graph has more
+/// components than that, each component with a cluster of its own; they get
+/// the 60 bytes, not the per-cluster capacity, so that the budget does not
+/// assume every cloud is dust.
 pub fn mesh_capacity(n: usize, cap: usize, params: &Params) -> usize {
     let asked = (params.cluster_cap() as usize).min(n).min(cap);
     n.saturating_mul(4)
