@@ -16,11 +16,13 @@
 //! | clustering | the above + labels + the largest scratch step (a partition) | 116 + 4 + 16 |
 //! | meshing | the above (without scratch) + the meshing capacity | 120 + 4 + per cluster |
 //!
-//! Plus 32 bytes per cluster of the cap (generators, seeds, their backups) and 4
-//! for the refinement list. The cap is what splitting may reach: `max_clusters`
-//! (twice `clusters` by default), or the number of connected components of the
-//! neighbour graph when larger (at most `n / (k + 1)`: every point has its k
-//! neighbours in its component).
+//! Plus 32 bytes per cluster of the limit (generators, seeds, their backups)
+//! and 4 for the refinement list. The limit is what splitting and refinement
+//! may reach ([`Params::cluster_limit`]): the cap, `max_clusters` (twice
+//! `clusters` by default), and a thirty-second more for refinement at the rims of
+//! gaps; or the number of connected components of the neighbour graph when
+//! larger (at most `n / (k + 1)`: every point has its k neighbours in its
+//! component).
 //!
 //! [`clean_bytes`] bounds the cleaning pre-pass [`clean`](crate::clean()) in the
 //! same way: the k-NN table plus the larger of the grid's scratch and the
@@ -34,7 +36,7 @@
 //! it. Its size is not a function of `n` and the parameters at all (3 candidate
 //! facets per cluster on a well-sampled surface, more than 10 with three points
 //! per cluster), so meshing runs under a ceiling of its own,
-//! [`mesh_capacity`]: `4 n + Params::mesh_bytes_per_cluster × cap` bytes per
+//! [`mesh_capacity`]: `4 n + Params::mesh_bytes_per_cluster × limit` bytes per
 //! round. A denser candidate graph fails with
 //! [`Error::MeshCapacity`](crate::Error::MeshCapacity), whatever the arena's size,
 //! so the output never depends on how much memory the caller happened to give.
@@ -55,11 +57,12 @@ use crate::arena::{padded_bytes, GRANULE};
 use crate::clustering::{knn, partition, quadric};
 use crate::params::{Params, MAX_K};
 
-/// The most clusters a run on `n` points can hold: the cap of splitting, or the
-/// components of the neighbour graph when there are more (see the module docs).
+/// The most clusters a run on `n` points can hold: the limit of splitting and
+/// refinement ([`Params::cluster_limit`]), or the components of the neighbour
+/// graph when there are more (see the module docs).
 fn cap_bound(n: usize, params: &Params) -> usize {
     let k = params.k.clamp(1, MAX_K);
-    (params.cluster_cap() as usize)
+    (params.cluster_limit() as usize)
         .min(n)
         .max(n / (k + 1))
         .max(1)
@@ -195,14 +198,14 @@ fn round_up(bytes: usize) -> usize {
 /// cluster (the per-cluster tables live at once: representatives, list starts,
 /// pieces of the data, border flags and positions, 45 bytes; the rims of gaps
 /// the faces span and a copy of the far points, 12), `mesh_bytes_per_cluster`
-/// per cluster up to the cap the parameters ask for (`max_clusters`, or twice
-/// `clusters`), and 1 KiB (the granule rounding of some seventy allocations).
-/// Clusters beyond the asked cap exist only when the neighbour graph has more
+/// per cluster up to the limit the parameters ask for
+/// ([`Params::cluster_limit`]), and 1 KiB (the granule rounding of some
+/// seventy allocations). Clusters beyond the asked limit exist only when the neighbour graph has more
 /// components than that, each component with a cluster of its own; they get
 /// the 60 bytes, not the per-cluster capacity, so that the budget does not
 /// assume every cloud is dust.
 pub fn mesh_capacity(n: usize, cap: usize, params: &Params) -> usize {
-    let asked = (params.cluster_cap() as usize).min(n).min(cap);
+    let asked = (params.cluster_limit() as usize).min(n).min(cap);
     n.saturating_mul(4)
         .saturating_add(cap.saturating_mul(60))
         .saturating_add(params.mesh_capacity_per_cluster().saturating_mul(asked))

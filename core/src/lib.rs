@@ -127,7 +127,7 @@ pub use meshing::problem::{selection_problem, SelectionProblem};
 pub use meshing::select::SelectStats;
 pub use meshing::MeshingStats;
 pub use parallel::Task;
-pub use params::{Params, MAX_ERROR_ROUNDS, MAX_K};
+pub use params::{Params, GAP_ROUNDS, MAX_ERROR_ROUNDS, MAX_K};
 pub use prepass::clean::{clean, clean_with_rows, CleanStats};
 pub use prepass::smooth::{smooth, smooth_bytes};
 pub use progress::{Flow, Progress, Silent, Stage};
@@ -244,19 +244,25 @@ pub fn reconstruct_with_rows<'a>(
     let max_distance = params.refine_distance(clustering.bounds.diag);
     // Clusters a round leaves without a face, for refinement: one buffer for all
     // rounds, so a round leaves nothing behind but, when it is the last, the mesh.
-    let uncovered = arena.try_alloc_slice::<u32>(clustering.state.cap(), 0)?;
+    let uncovered = arena.try_alloc_slice::<u32>(clustering.state.limit(), 0)?;
     let mut rounds = 0;
+    let mut gap_rounds = 0;
     let mut added = 0;
     let mut last = false;
     let (mesh, meshing) = loop {
         // The last round writes the mesh out; an earlier one only when it covers
         // every cluster and meets the error bound (otherwise refinement follows
-        // and the mesh would be waste).
-        last |= rounds >= params.refinement_rounds() || clustering.state.room() == 0;
+        // and the mesh would be waste). After the refinement rounds, rounds for
+        // the genus write it out unless faces span a gap in the data.
+        let state = &clustering.state;
         let output = if last {
             Output::Always
-        } else {
+        } else if rounds < params.refinement_rounds() && state.room() > 0 {
             Output::IfFaithful { max_distance }
+        } else if gap_rounds < GAP_ROUNDS && state.rim_room() > 0 && max_distance.is_finite() {
+            Output::IfNoGaps { max_distance }
+        } else {
+            Output::Always
         };
         let (mesh, stats) = mesh_round_within(arena, end, || {
             meshing::try_mesh_round_in(
@@ -275,17 +281,25 @@ pub fn reconstruct_with_rows<'a>(
         if let Some(mesh) = mesh {
             break (mesh, stats);
         }
-        // Add generators at the points farthest beyond the bound, or else split
-        // the clusters left out (at their worst point).
+        // Add generators at the points farthest beyond the bound and at the
+        // rims of gaps the faces span, or else split the clusters left out (at
+        // their worst point).
         let (n_out, n_far) = (stats.mesh.uncovered_clusters, stats.mesh.far_clusters);
-        let targets = &uncovered[..(n_out.max(n_far) as usize).min(uncovered.len())];
+        let len = uncovered.len();
+        let targets = &uncovered[..(n_out.max(n_far) as usize).min(len)];
+        let rims_from = (n_far.saturating_sub(stats.mesh.gap_rims) as usize).min(len);
+        let (far, rims) = targets.split_at(rims_from.min(targets.len()));
         let (state, nb, planes) = (
             &mut clustering.state,
             &clustering.neighbours,
             &clustering.planes,
         );
+        // Only rounds for the genus go past the cap.
+        let genus = matches!(output, Output::IfNoGaps { .. });
         let more = if n_far > 0 {
-            state.refine_at(arena, points, nb, planes, targets, params, progress)?
+            state.refine_at(
+                arena, points, nb, planes, far, rims, genus, params, progress,
+            )?
         } else {
             state.refine(arena, points, nb, planes, targets, params, progress)?
         };
@@ -295,12 +309,17 @@ pub fn reconstruct_with_rows<'a>(
             last = true;
             continue;
         }
-        rounds += 1;
+        if genus {
+            gap_rounds += 1;
+        } else {
+            rounds += 1;
+        }
         added += more as u32;
     };
     let meshing = MeshingStats {
         peak: arena.peak(),
         refine_rounds: rounds,
+        gap_rounds,
         refine_added: added,
         ..meshing
     };

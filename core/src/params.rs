@@ -15,8 +15,9 @@ pub struct Params {
     /// Initial number of generators (clusters). Clamped to the number of points and
     /// raised to the number of connected components. Default 1000.
     pub clusters: u32,
-    /// Upper bound on clusters that batch splitting may reach; 0 means twice
-    /// `clusters`. Default 0.
+    /// Upper bound on clusters that batch splitting and refinement may reach
+    /// (refinement at the rims of gaps may go a [`GAP_ROOM`]th beyond it); 0
+    /// means twice `clusters`. Default 0.
     pub max_clusters: u32,
     /// Partition + generator-update passes before the first splitting batch; the
     /// loop stops early when no generator moves. Default 5.
@@ -150,6 +151,25 @@ pub struct Params {
 /// the bound, so the cluster count can grow by that much per round.
 pub const MAX_ERROR_ROUNDS: u32 = 16;
 
+/// Meshing rounds at most for the genus, after the refinement rounds
+/// ([`Params::refine_rounds`]): while faces of the mesh span a gap in the data
+/// (a slot or a tunnel the clusters straddle, so the mesh closes it: a wrong
+/// genus), a generator goes to the gap's rim and the mesh is made again. Only
+/// the rims are refined in these rounds (far points wait for the ordinary
+/// ones), and they run only where the refinement distance is finite. On the
+/// shared clouds the gear at 250 clusters needs 4 (its hub's radial holes, 0.1
+/// wide, take one or two generators a round); no other model needs any.
+pub const GAP_ROUNDS: u32 = 4;
+
+/// The room beyond the cluster cap ([`Params::cluster_cap`]) for generators
+/// at the rims of gaps, as a divisor of the cap: a thirty-second. Splitting
+/// can take the whole cap, and a wrong genus is worse than a few more
+/// vertices (the gear at 250 clusters: splitting ends at 486 of 500, then 20
+/// generators in 5 rounds open its last hole, 6 of them past the cap). Kept
+/// small because the meshing capacity is budgeted for every cluster of it
+/// (a sixteenth put a sphere's budget above twice its peak).
+pub const GAP_ROOM: u32 = 32;
+
 impl Default for Params {
     fn default() -> Self {
         Params {
@@ -219,13 +239,21 @@ impl Params {
         }
     }
 
-    /// The cluster cap splitting works towards.
+    /// The cluster cap splitting works towards, and refinement's but at the
+    /// rims of gaps.
     pub fn cluster_cap(&self) -> u32 {
         if self.max_clusters == 0 {
             self.clusters.saturating_mul(2)
         } else {
             self.max_clusters.max(self.clusters)
         }
+    }
+
+    /// The most clusters a run can hold: the cap and a [`GAP_ROOM`]th of it
+    /// for generators at the rims of gaps the faces span.
+    pub fn cluster_limit(&self) -> u32 {
+        let cap = self.cluster_cap();
+        cap.saturating_add(cap / GAP_ROOM)
     }
 
     /// Meshing working memory per cluster of the cap, in bytes (see

@@ -190,7 +190,9 @@ pub fn tolerance_unmet(c: &ClusterStats, cap: u32, split_rounds: u32) -> Option<
     if c.max_error.is_nan() || c.max_error <= c.tolerance || c.tolerance <= 0.0 {
         return None;
     }
-    let at_cap = c.clusters >= cap;
+    // Splitting's own clusters: refinement runs after it (and may go beyond
+    // the cap at the rims of gaps).
+    let at_cap = c.initial_clusters.saturating_add(c.splits) >= cap;
     let why = if at_cap {
         format!("the cluster cap {cap} is reached (raise --max-clusters)")
     } else if c.split_rounds + c.rejected_batches >= split_rounds {

@@ -135,7 +135,8 @@ impl<'p, 'a> Ctx<'p, 'a> {
     }
 }
 
-/// Arena bytes of clustering `n` points into at most `cap` clusters: `(kept,
+/// Arena bytes of clustering `n` points into at most `cap` clusters (the
+/// limit, [`Params::cluster_limit`]): `(kept,
 /// scratch)`. Kept: labels (4 per point), generators and seeds, and their
 /// backups for undoing a splitting batch (32 per cluster of the cap). Scratch:
 /// the largest of one step's, each in a scope of its own: the components (4 per
@@ -182,6 +183,10 @@ pub struct ClusterState<'a> {
     generators: &'a mut [V3],
     seeds: &'a mut [u32],
     m: usize,
+    /// The cluster cap (splitting's, and refinement's but at the rims of
+    /// gaps): the generators beyond it, up to `generators.len()` (the limit),
+    /// are for those rims.
+    cap: usize,
     /// Statistics so far.
     pub stats: ClusterStats,
 }
@@ -200,11 +205,18 @@ impl<'a> ClusterState<'a> {
     /// Generators the cluster cap still allows ([`ClusterState::refine`] adds
     /// none when this is 0).
     pub fn room(&self) -> usize {
+        self.cap.saturating_sub(self.m)
+    }
+
+    /// Generators the limit still allows at the rims of gaps
+    /// ([`ClusterState::refine_at`]'s `rims`).
+    pub fn rim_room(&self) -> usize {
         self.generators.len() - self.m
     }
 
-    /// The cluster cap: the most generators this clustering can ever hold.
-    pub fn cap(&self) -> usize {
+    /// The limit: the most generators this clustering can ever hold (the cap
+    /// and the room beyond it for the rims of gaps, [`Params::cluster_limit`]).
+    pub fn limit(&self) -> usize {
         self.generators.len()
     }
 
@@ -235,8 +247,7 @@ impl<'a> ClusterState<'a> {
     ) -> Result<usize> {
         let ctx = Ctx::new(points, nb, planes, params);
         let m = self.m;
-        let room = self.generators.len() - m;
-        let take = targets.len().min(room);
+        let take = targets.len().min(self.room());
         if take == 0 {
             return Ok(0);
         }
@@ -290,11 +301,7 @@ impl<'a> ClusterState<'a> {
             for j in 0..m {
                 let (a, b) = (along[j], worst[j].1);
                 for p in [Some(a), (b != a).then_some(b)].into_iter().flatten() {
-                    if wanted[j]
-                        && p != u32::MAX
-                        && p != self.seeds[j]
-                        && m + added < self.generators.len()
-                    {
+                    if wanted[j] && p != u32::MAX && p != self.seeds[j] && m + added < self.cap {
                         self.generators[m + added] = points[p as usize];
                         self.seeds[m + added] = p;
                         added += 1;
@@ -307,9 +314,12 @@ impl<'a> ClusterState<'a> {
     }
 
     /// Adds a generator at each point of `at` (a point index), as room under the
-    /// cap allows, then relaxes as [`ClusterState::refine`] does. A point that
-    /// seeds its cluster hands that on to the cluster's member of least cost
-    /// (O(n) each). Returns the generators added.
+    /// cap allows, and at each point of `rims` (the rims of gaps the faces
+    /// span), as room under the cap, or with `past_cap` the limit, allows
+    /// (see [`Params::cluster_limit`]); then relaxes as
+    /// [`ClusterState::refine`] does. A point that seeds its cluster hands that
+    /// on to the cluster's member of least cost (O(n) each). Returns the
+    /// generators added.
     #[allow(clippy::too_many_arguments)]
     pub fn refine_at(
         &mut self,
@@ -318,15 +328,21 @@ impl<'a> ClusterState<'a> {
         nb: &Neighbours,
         planes: &Planes,
         at: &[u32],
+        rims: &[u32],
+        past_cap: bool,
         params: &Params,
         progress: &mut dyn Progress,
     ) -> Result<usize> {
         let ctx = Ctx::new(points, nb, planes, params);
         let m = self.m;
         let mut added = 0;
-        for &p in at {
-            if m + added >= self.generators.len() {
-                break;
+        let cap = self.cap;
+        let limit = if past_cap { self.generators.len() } else { cap };
+        let under_cap = at.iter().map(|&p| (p, cap));
+        let under_limit = rims.iter().map(|&p| (p, limit));
+        for (p, end) in under_cap.chain(under_limit) {
+            if m + added >= end {
+                continue;
             }
             let (Some(&q), Some(&l)) = (points.get(p as usize), self.labels.get(p as usize)) else {
                 continue;
@@ -419,8 +435,9 @@ pub fn try_cluster_state_in<'a>(
     let components = arena.scratch(|s| components(s, nb).map(|(_, count)| count))?;
     let wanted = (params.clusters as usize).min(n).max(components as usize);
     let cap = (params.cluster_cap() as usize).min(n).max(wanted);
-    let generators = arena.try_alloc_slice::<V3>(cap, [0.0; 3])?;
-    let seeds = arena.try_alloc_slice::<u32>(cap, 0)?;
+    let limit = (params.cluster_limit() as usize).min(n).max(cap);
+    let generators = arena.try_alloc_slice::<V3>(limit, [0.0; 3])?;
+    let seeds = arena.try_alloc_slice::<u32>(limit, 0)?;
     arena.scratch(|s| initial_seeds(s, nb, params.seed, &mut seeds[..wanted]))?;
     for j in 0..wanted {
         generators[j] = points[seeds[j] as usize];
@@ -534,6 +551,7 @@ pub fn try_cluster_state_in<'a>(
         generators,
         seeds,
         m,
+        cap,
         stats,
     })
 }

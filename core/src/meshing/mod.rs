@@ -64,6 +64,8 @@ pub struct MeshingStats {
     pub mean_supports: f32,
     /// Refinement rounds run.
     pub refine_rounds: u32,
+    /// Rounds for the genus run after them ([`crate::params::GAP_ROUNDS`]).
+    pub gap_rounds: u32,
     /// Generators added by refinement.
     pub refine_added: u32,
     /// The facet selection (last round).

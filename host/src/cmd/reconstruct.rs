@@ -332,7 +332,7 @@ impl ReconstructReport {
         };
         format!(
             "{}\
-             clusters   {} ({} initial, +{} by splitting, +{} by refinement in {} rounds), max error {:.3}% of the diagonal{}\n\
+             clusters   {} ({} initial, +{} by splitting, +{} by refinement in {} rounds{}), max error {:.3}% of the diagonal{}\n\
              candidates {} edges, {} facets ({} degenerate, {} fold groups, {} generators merged), {:.1} supports per facet\n\
              selection  {solver}, {} independent parts (largest {} facets), {} facets fixed by propagation\n\
              mesh       {} vertices, {} faces, {} components, {closed}; {} skipped clusters inserted\n\
@@ -346,7 +346,12 @@ impl ReconstructReport {
             cl.initial_clusters,
             cl.splits,
             m.refine_added,
-            m.refine_rounds,
+            m.refine_rounds + m.gap_rounds,
+            if m.gap_rounds > 0 {
+                format!(", {} of them for gaps in the data", m.gap_rounds)
+            } else {
+                String::new()
+            },
             cl.max_error * 100.0,
             tolerance_unmet(cl, self.cap, self.split_rounds).map_or(String::new(), |(why, _)| format!("; {why}")),
             m.candidate_edges,
@@ -390,6 +395,7 @@ impl ReconstructReport {
             .num("initial_clusters", cl.initial_clusters as f64)
             .num("splits", cl.splits as f64)
             .num("refine_rounds", m.refine_rounds as f64)
+            .num("gap_rounds", m.gap_rounds as f64)
             .num("refine_added", m.refine_added as f64)
             .num("passes", cl.passes as f64);
         error_json(&mut o, cl, self.tolerance, self.cap);

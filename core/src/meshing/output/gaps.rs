@@ -38,6 +38,16 @@ pub(super) const GAP_SPAN: f32 = 2.0;
 /// base (28 rim points), at least 0.43 at the gear's slots (13).
 const GOES_ON: f32 = 0.37;
 
+/// How far off the rim point's tangent plane the face's sample must lie, as a
+/// fraction of their distance. A face over a void in the sampling of the
+/// surface it lies on (random samples leave empty disks up to about twice
+/// their spacing wide) has its sample about in that plane: on a cylinder of
+/// 5,000 random points at 120 clusters, 90 % of such faces are under 0.3
+/// (the largest 0.66, cutting a sharp edge). A face across a tunnel or slot
+/// faces the wall: the gear's hub holes at 250 clusters, 0.63 and more
+/// (median 0.95).
+const OFF_TANGENT: f32 = 0.5;
+
 /// Barycentric weights of a face's samples.
 const SAMPLES: [[f32; 3]; 7] = [
     [1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0],
@@ -140,11 +150,26 @@ pub(super) fn faces_over_gaps(
             }
         }
         if let Some((e, p, cl, q)) = worst {
-            if goes_on(points, nb, planes, p, q) {
+            if off_tangent(points, planes, p, q) && goes_on(points, nb, planes, p, q) {
                 offer(cl, libm::sqrtf(e), p);
             }
         }
     }
+}
+
+/// Whether sample `q` lies off the tangent plane of rim point `p` by at least
+/// [`OFF_TANGENT`] of their distance (a point without a usable plane: yes).
+fn off_tangent(points: &[V3], planes: &Planes, p: u32, q: V3) -> bool {
+    let (Some(&x), Some(u)) = (points.get(p as usize), planes.planes.get(p as usize)) else {
+        return false;
+    };
+    let n = [u[0], u[1], u[2]];
+    let d = sub(q, x);
+    let (h, nn, dd) = (dot(d, n), dot(n, n), dot(d, d));
+    if !(nn > 0.0 && nn.is_finite()) {
+        return true;
+    }
+    h * h >= OFF_TANGENT * OFF_TANGENT * nn * dd
 }
 
 /// Whether the data goes on past rim point `p` towards sample `q`: at least
@@ -277,5 +302,16 @@ mod tests {
         // The same face on a plate without the hole is near the data.
         let whole = plate(0.0, |_, _| false);
         assert!(offered(&whole, face, 0.06).is_empty());
+    }
+
+    #[test]
+    fn a_face_over_a_void_in_the_sampling_offers_nothing() {
+        // A void of radius 0.12 (the data goes on all around it, as in a
+        // random sampling) under a face that lies in the plate: its samples
+        // are far from the data, but in the rim's tangent plane.
+        let void = |x: f32, y: f32| (x - 0.5) * (x - 0.5) + (y - 0.5) * (y - 0.5) < 0.0144;
+        let points = plate(0.0, void);
+        let face = [[0.4, 0.45, 0.0], [0.6, 0.45, 0.0], [0.5, 0.6, 0.0]];
+        assert!(offered(&points, face, 0.06).is_empty());
     }
 }

@@ -114,8 +114,11 @@ pub struct MeshStats {
     /// fitting.
     pub distance: MeshDistance,
     /// Clusters with a point farther from the mesh than the round allowed
-    /// ([`Output::IfFaithful`]); 0 when it allowed any distance.
+    /// ([`Output::IfFaithful`]), and rims of gaps the faces span (for
+    /// [`Output::IfNoGaps`] only those); 0 when it allowed any distance.
     pub far_clusters: u32,
+    /// The rims of gaps among them (listed after the far points).
+    pub gap_rims: u32,
 }
 
 /// A triangle mesh in core coordinates.
@@ -196,6 +199,14 @@ pub enum Output {
     /// be thrown away.
     IfFaithful {
         /// The largest distance from a point to the mesh allowed.
+        max_distance: f32,
+    },
+    /// Only when no face spans a gap in the data (a face farther than twice
+    /// `max_distance` from every point, where the data goes on past the
+    /// rim): a round for the genus
+    /// ([`crate::params::GAP_ROUNDS`]), whose points may be far.
+    IfNoGaps {
+        /// The refinement distance the gaps' bound is a multiple of.
         max_distance: f32,
     },
 }
@@ -461,6 +472,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             fit: FitStats::default(),
             distance: MeshDistance::default(),
             far_clusters: 0,
+            gap_rims: 0,
         };
         let mut stats = stats;
         let max_distance = match output {
@@ -470,7 +482,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             Output::IfFaithful { .. } if uncovered_clusters > 0 && params.max_error <= 0.0 => {
                 return Ok((None, stats))
             }
-            Output::IfFaithful { max_distance } => max_distance,
+            Output::IfFaithful { max_distance } | Output::IfNoGaps { max_distance } => max_distance,
             Output::Always => f32::INFINITY,
         };
         // The mesh is made in scratch and measured there; only a mesh that is
@@ -659,9 +671,11 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
                 },
             );
         }
+        // A round for the genus lists only the rims of gaps.
+        let far_points = !matches!(output, Output::IfNoGaps { .. });
         let far = {
             let mut far = 0usize;
-            for j in 0..members.len() {
+            for j in (0..members.len()).filter(|_| far_points) {
                 // Under an error bound every point counts; refining towards
                 // `refine_beyond`, only those that are part of the surface (a
                 // stray point would draw a spike).
@@ -694,7 +708,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             }
             // Then the rims of gaps, widest first, each point once.
             let listed = far.min(uncovered.len());
-            far += s.scratch(|t| -> Result<usize> {
+            let rims = s.scratch(|t| -> Result<usize> {
                 let taken = t.try_alloc_copy::<u32>(&uncovered[..listed])?;
                 taken.sort_unstable();
                 let gap = &mut gap[..];
@@ -718,11 +732,13 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
                 }
                 Ok(more)
             })?;
+            stats.gap_rims = rims as u32;
             stats.distance = summarise(d, diag);
-            far as u32
+            (far + rims) as u32
         };
         stats.far_clusters = far;
-        if far > 0 && max_distance.is_finite() {
+        let redo = if far_points { far } else { stats.gap_rims };
+        if redo > 0 && max_distance.is_finite() {
             return Ok((None, stats));
         }
         let mesh = Mesh {
