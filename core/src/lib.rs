@@ -259,7 +259,11 @@ pub fn reconstruct_with_rows<'a>(
             Output::Always
         } else if rounds < params.refinement_rounds() && state.room() > 0 {
             Output::IfFaithful { max_distance }
-        } else if gap_rounds < GAP_ROUNDS && state.rim_room() > 0 && max_distance.is_finite() {
+        } else if gap_rounds < GAP_ROUNDS
+            && state.rim_room() > 0
+            && max_distance.is_finite()
+            && coarse(points.len(), state.view().generators.len(), params)
+        {
             Output::IfNoGaps { max_distance }
         } else {
             Output::Always
@@ -328,6 +332,17 @@ pub fn reconstruct_with_rows<'a>(
         mesh,
         meshing,
     })
+}
+
+/// Whether `clusters` clusters of `n` points are coarser than the sampling:
+/// at least `k` points each on average. Only then do rounds for the genus
+/// run: a gap narrower than the clusters is what they open, and where the
+/// clusters are about as fine as the sampling, a face far from every point
+/// spans a sparsely sampled part of the surface instead (the flat faces of a
+/// CAD model's vertices: the fandisk at 2,000 clusters, 3 points each, ran 3
+/// rounds for its rims, with no change to the genus, for 2.3 times the time).
+fn coarse(n: usize, clusters: usize, params: &Params) -> bool {
+    n >= params.k.saturating_mul(clusters)
 }
 
 /// Runs a meshing round under the ceiling `end`: running out of memory there is
