@@ -60,6 +60,8 @@ struct Run {
     triangles: Vec<[u32; 3]>,
     /// Core's largest point-to-mesh distance, relative to the diagonal.
     core_max: f32,
+    /// Rounds for the genus run.
+    gap_rounds: u32,
 }
 
 fn run(points: &[V3], params: &Params) -> Run {
@@ -70,6 +72,7 @@ fn run(points: &[V3], params: &Params) -> Run {
         vertices: f64s(r.mesh.vertices),
         triangles: r.mesh.triangles.to_vec(),
         core_max: r.meshing.mesh.distance.max,
+        gap_rounds: r.meshing.gap_rounds,
     })
 }
 
@@ -116,6 +119,11 @@ fn shared_clouds_give_valid_meshes_at_every_cluster_count() {
                     )),
                     _ => {}
                 }
+            }
+            if name == "bunny_scan000" && r.gap_rounds > 0 {
+                // Open data: its mesh has a boundary, and rounds for the
+                // genus are for closed surfaces.
+                failures.push(format!("{} rounds for the genus: {what}", r.gap_rounds));
             }
             if name == "bunny_scan000" && clusters <= 1000 {
                 // Every point of the file, those cleaning dropped counting as far.

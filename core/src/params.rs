@@ -156,11 +156,11 @@ pub const MAX_ERROR_ROUNDS: u32 = 16;
 /// (a slot or a tunnel the clusters straddle, so the mesh closes it: a wrong
 /// genus), a generator goes to the gap's rim and the mesh is made again. Only
 /// the rims are refined in these rounds (far points wait for the ordinary
-/// ones), and they run only where the refinement distance is finite and the
-/// clusters hold at least `k` points each on average. On the shared clouds
-/// the gear at 250 clusters runs 3 (its hub's radial holes, 0.1 wide, take
-/// one to three generators a round); the raw scan at 500 and the horse at 250
-/// run one each.
+/// ones), and they run only where the refinement distance is finite, the
+/// clusters hold at least `k` points each on average and the last round's
+/// mesh had no boundary (closed data). On the shared clouds the gear at 250
+/// clusters runs 3 (its hub's radial holes, 0.1 wide, take one to three
+/// generators a round), the gear at 500 and the horse at 250 one each.
 pub const GAP_ROUNDS: u32 = 4;
 
 /// The room beyond the cluster cap ([`Params::cluster_cap`]) for generators
