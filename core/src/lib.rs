@@ -252,7 +252,9 @@ pub fn reconstruct_with_rows<'a>(
     // Whether the last round's mesh had a boundary (open data). Rounds for
     // the genus are for closed surfaces and do not run then: the raw scan at
     // 500 clusters ran one, for one generator, and its farthest kept point
-    // went from 1.24 to 2.30 % of the diagonal.
+    // went from 1.24 to 2.30 % of the diagonal. On open data a far point that
+    // is a cluster of its own refines at a neighbour
+    // ([`ClusterState::refine_at`](clustering::partition::ClusterState::refine_at)).
     let mut open = false;
     let (mesh, meshing) = loop {
         // The last round writes the mesh out; an earlier one only when it covers
@@ -309,7 +311,7 @@ pub fn reconstruct_with_rows<'a>(
         let genus = matches!(output, Output::IfNoGaps { .. });
         let more = if n_far > 0 {
             state.refine_at(
-                arena, points, nb, planes, far, rims, genus, params, progress,
+                arena, points, nb, planes, far, rims, genus, open, params, progress,
             )?
         } else {
             state.refine(arena, points, nb, planes, targets, params, progress)?

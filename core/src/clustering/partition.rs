@@ -316,9 +316,11 @@ impl<'a> ClusterState<'a> {
     /// Adds a generator at each point of `at` (a point index), as room under the
     /// cap allows, and at each point of `rims` (the rims of gaps the faces
     /// span), as room under the cap, or with `past_cap` the limit, allows
-    /// (see [`Params::cluster_limit`]; with `past_cap`, a rim point that is a
-    /// cluster of its own hands the generator to the neighbour its generator
-    /// represents worst); then relaxes as
+    /// (see [`Params::cluster_limit`]). A point that is a cluster of its own
+    /// hands the generator to the neighbour its own generator represents
+    /// worst: a rim with `past_cap` (a round for the genus), a far point with
+    /// `open` (the mesh has a boundary: on open data a far point beyond the
+    /// border, the raw scan's under an error bound of 0.5 %). Then relaxes as
     /// [`ClusterState::refine`] does. A point that seeds its cluster hands that
     /// on to the cluster's member of least cost (O(n) each). Returns the
     /// generators added.
@@ -332,6 +334,7 @@ impl<'a> ClusterState<'a> {
         at: &[u32],
         rims: &[u32],
         past_cap: bool,
+        open: bool,
         params: &Params,
         progress: &mut dyn Progress,
     ) -> Result<usize> {
@@ -349,14 +352,14 @@ impl<'a> ClusterState<'a> {
             let Some(&l) = self.labels.get(p as usize) else {
                 continue;
             };
-            // In a round for the genus (`past_cap`), a rim point that alone
-            // makes its cluster cannot be split off again: its neighbour worst
-            // represented by its own generator goes instead, further into the
-            // gap's wall. (Not in the other rounds: there it changed what
-            // the rounds of an error bound reach, the fandisk's 0.5 % no
+            // A point that alone makes its cluster cannot be split off again:
+            // its neighbour worst represented by its own generator goes
+            // instead: for a rim in a round for the genus (`past_cap`), further
+            // into the gap's wall; for a far point on open data, further
+            // beyond the border. (Not everywhere: on closed data it changed
+            // what the rounds of an error bound reach, the fandisk's 0.5 % no
             // longer met.)
-            let alone = rim
-                && past_cap
+            let alone = (if rim { past_cap } else { open })
                 && self.seeds.get(l as usize) == Some(&p)
                 && !self
                     .labels
@@ -1085,6 +1088,7 @@ mod tests {
                 &[],
                 &[p],
                 true,
+                false,
                 &params,
                 &mut Silent,
             )
