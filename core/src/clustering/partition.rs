@@ -349,59 +349,36 @@ impl<'a> ClusterState<'a> {
             if m + added >= end {
                 continue;
             }
-            let Some(&l) = self.labels.get(p as usize) else {
-                continue;
-            };
-            // A point that alone makes its cluster cannot be split off again:
-            // its neighbour worst represented by its own generator goes
-            // instead: for a rim in a round for the genus (`past_cap`), further
-            // into the gap's wall; for a far point on open data, further
-            // beyond the border. (Not everywhere: on closed data it changed
-            // what the rounds of an error bound reach, the fandisk's 0.5 % no
-            // longer met.)
-            let alone = (if rim { past_cap } else { open })
-                && self.seeds.get(l as usize) == Some(&p)
-                && !self
-                    .labels
-                    .iter()
-                    .enumerate()
-                    .any(|(i, &x)| x == l && i != p as usize);
-            let p = if alone {
-                let worst = nb
-                    .of(p as usize)
-                    .iter()
-                    .filter(|&&j| {
-                        let lj = self.labels[j as usize];
-                        self.seeds.get(lj as usize) != Some(&j)
-                    })
-                    .map(|&j| {
-                        let lj = self.labels[j as usize] as usize;
-                        (dist2(points[j as usize], self.generators[lj]), j)
-                    })
-                    .max_by(|a, b| a.0.total_cmp(&b.0).then(b.1.cmp(&a.1)));
-                match worst {
-                    Some((_, j)) => j,
-                    None => continue,
-                }
-            } else {
-                p
-            };
             let (Some(&q), Some(&l)) = (points.get(p as usize), self.labels.get(p as usize)) else {
                 continue;
             };
+            let (mut p, mut q) = (p, q);
             if self.seeds.get(l as usize) == Some(&p) {
                 // p seeds its cluster: that cluster takes its member of least
-                // cost instead, and p seeds the new one (a cluster of one
-                // point keeps it).
+                // cost instead, and p seeds the new one.
                 let g = self.generators[l as usize];
                 let other = (0..points.len())
                     .filter(|&i| self.labels[i] == l && i != p as usize)
                     .map(|i| (ctx.cost(i, g), i as u32))
                     .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-                let Some((_, i)) = other else {
-                    continue;
-                };
-                self.seeds[l as usize] = i;
+                match other {
+                    Some((_, i)) => self.seeds[l as usize] = i,
+                    // A point that alone makes its cluster cannot be split
+                    // off again: its neighbour worst represented by its own
+                    // generator goes instead: for a rim in a round for the
+                    // genus (`past_cap`), further into the gap's wall; for a
+                    // far point on open data, further beyond the border.
+                    // (Not everywhere: on closed data it changed what the
+                    // rounds of an error bound reach, the fandisk's 0.5 % no
+                    // longer met.) Otherwise the cluster keeps it.
+                    None if (if rim { past_cap } else { open }) => {
+                        let Some(j) = self.worst_neighbour(points, nb, p) else {
+                            continue;
+                        };
+                        (p, q) = (j, points[j as usize]);
+                    }
+                    None => continue,
+                }
             }
             self.generators[m + added] = q;
             self.seeds[m + added] = p;
@@ -411,6 +388,23 @@ impl<'a> ClusterState<'a> {
         // update would pull them back towards where the mesh was too far from
         // the data.
         self.relax_after_adding(arena, &ctx, added, None, progress)
+    }
+
+    /// Of `p`'s neighbours that seed no cluster, the one farthest from its own
+    /// cluster's generator (the lowest index among equals).
+    fn worst_neighbour(&self, points: &[V3], nb: &Neighbours, p: u32) -> Option<u32> {
+        nb.of(p as usize)
+            .iter()
+            .filter(|&&j| {
+                let lj = self.labels[j as usize];
+                self.seeds.get(lj as usize) != Some(&j)
+            })
+            .map(|&j| {
+                let lj = self.labels[j as usize] as usize;
+                (dist2(points[j as usize], self.generators[lj]), j)
+            })
+            .max_by(|a, b| a.0.total_cmp(&b.0).then(b.1.cmp(&a.1)))
+            .map(|(_, j)| j)
     }
 
     /// Takes the `added` generators written after the first `m` into the
