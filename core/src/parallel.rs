@@ -83,39 +83,50 @@ where
 }
 
 /// A task over a range of items and their entries in two outputs.
-struct Pairs<'a, A, B, F> {
+struct Pairs<'a, A, B, R, F> {
     f: &'a F,
     items: Range<usize>,
     a: &'a mut [A],
     b: &'a mut [B],
+    result: R,
 }
 
-impl<A: Send, B: Send, F: Fn(Range<usize>, &mut [A], &mut [B]) + Sync> Task for Pairs<'_, A, B, F> {
+impl<A: Send, B: Send, R: Send, F: Fn(Range<usize>, &mut [A], &mut [B]) -> R + Sync> Task
+    for Pairs<'_, A, B, R, F>
+{
     fn run(&mut self) {
-        (self.f)(self.items.clone(), self.a, self.b);
+        self.result = (self.f)(self.items.clone(), self.a, self.b);
     }
 }
 
 /// Runs `f(items, a_part, b_part)` over [`TASKS`] contiguous ranges of the
 /// items of `a` and `b` (one entry each per item; items beyond the shorter are
-/// left out).
-pub fn pairs<A, B, F>(hooks: &dyn Progress, a: &mut [A], b: &mut [B], f: F)
+/// left out). Returns each task's result, in task order.
+pub fn pairs<A, B, R, F>(hooks: &dyn Progress, a: &mut [A], b: &mut [B], f: F) -> [R; TASKS]
 where
     A: Send,
     B: Send,
-    F: Fn(Range<usize>, &mut [A], &mut [B]) + Sync,
+    R: Send + Default,
+    F: Fn(Range<usize>, &mut [A], &mut [B]) -> R + Sync,
 {
     let n = a.len().min(b.len());
     let (mut rest_a, mut rest_b) = (&mut a[..n], &mut b[..n]);
-    let mut jobs: [Pairs<A, B, F>; TASKS] = core::array::from_fn(|t| {
+    let mut jobs: [Pairs<A, B, R, F>; TASKS] = core::array::from_fn(|t| {
         let items = range(n, t);
         let (a, tail_a) = core::mem::take(&mut rest_a).split_at_mut(items.len());
         let (b, tail_b) = core::mem::take(&mut rest_b).split_at_mut(items.len());
         (rest_a, rest_b) = (tail_a, tail_b);
-        Pairs { f: &f, items, a, b }
+        Pairs {
+            f: &f,
+            items,
+            a,
+            b,
+            result: R::default(),
+        }
     });
     let mut tasks = jobs.each_mut().map(|j| j as &mut dyn Task);
     hooks.run(&mut tasks);
+    jobs.map(|j| j.result)
 }
 
 /// [`rows`] over waves of [`WAVE`] items, reporting progress of `stage` after

@@ -444,7 +444,7 @@ impl<'a> ClusterState<'a> {
         }
         self.stats.clusters = grown as u32;
         self.stats.max_error = relative(
-            split::max_error2(ctx, self.labels, &self.generators[..grown]),
+            split::max_error2(ctx, self.labels, &self.generators[..grown], &*progress),
             Bounds::of(ctx.points).diag,
         );
         Ok(added)
@@ -502,11 +502,15 @@ pub fn try_cluster_state_in<'a>(
         generators,
         seeds,
     };
-    let mut pass = |st: &mut State, m: usize, count: u32, stats: &mut ClusterStats| {
+    let pass = |st: &mut State,
+                m: usize,
+                count: u32,
+                stats: &mut ClusterStats,
+                progress: &mut dyn Progress| {
         passes(arena, &ctx, st, m, count, stats, progress, planned)
     };
-    pass(&mut st, m, params.iterations, &mut stats)?;
-    let mut err2 = split::max_error2(&ctx, st.labels, &st.generators[..m]);
+    pass(&mut st, m, params.iterations, &mut stats, progress)?;
+    let mut err2 = split::max_error2(&ctx, st.labels, &st.generators[..m], &*progress);
     if params.tolerance > 0.0 && params.split_rounds > 0 {
         let backup_g = arena.try_alloc_slice::<V3>(cap, [0.0; 3])?;
         let backup_s = arena.try_alloc_slice::<u32>(cap, 0)?;
@@ -528,6 +532,7 @@ pub fn try_cluster_state_in<'a>(
                     cap,
                     tol2,
                     limit,
+                    &*progress,
                 )
             })?;
             if added == 0 {
@@ -536,9 +541,15 @@ pub fn try_cluster_state_in<'a>(
             let grown = m + added;
             stats.energy = repartition(arena, &ctx, &mut st, grown)?;
             if relax {
-                pass(&mut st, grown, params.split_iterations, &mut stats)?;
+                pass(
+                    &mut st,
+                    grown,
+                    params.split_iterations,
+                    &mut stats,
+                    progress,
+                )?;
             }
-            let after = split::max_error2(&ctx, st.labels, &st.generators[..grown]);
+            let after = split::max_error2(&ctx, st.labels, &st.generators[..grown], &*progress);
             if after <= err2 {
                 // Accepted: the maximum error never grows from one batch to the next.
                 let r = stats.split_rounds as usize;

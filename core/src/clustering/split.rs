@@ -12,16 +12,18 @@
 //! Candidates are visited by decreasing error; a cluster is split only if no
 //! cluster adjacent to it (sharing a symmetrised k-NN edge) was split in this
 //! batch — a greedy independent set, so one batch never over-refines one area.
-//! Cost: O(n k) plus a sort of the candidates; memory: 4 bytes per point (member
-//! lists) plus O(clusters), all scratch.
+//! Cost: O(n k) plus a sort of the candidates; memory: 8 bytes per point (point
+//! errors, member lists) plus O(clusters), all scratch.
 
 use crate::arena::{padded_bytes, Scratch};
 use crate::clustering::partition::Ctx;
 use crate::error::Result;
 use crate::math::V3;
+use crate::parallel;
+use crate::progress::Progress;
 
-/// Scratch bytes of one batch over at most `m` clusters: member lists (4 per
-/// point) and 21 bytes per cluster. Keep in step with `try_split_in`.
+/// Scratch bytes of one batch over at most `m` clusters: point errors and
+/// member lists (8 per point) and 21 bytes per cluster. Keep in step with `try_split_in`.
 pub fn split_bytes(n: usize, m: usize) -> usize {
     [
         padded_bytes::<u32>(m),                   // worst
@@ -31,6 +33,7 @@ pub fn split_bytes(n: usize, m: usize) -> usize {
         padded_bytes::<u32>(n),                   // members
         padded_bytes::<u32>(m),                   // cursor
         padded_bytes::<bool>(m),                  // blocked
+        padded_bytes::<f32>(n),                   // errors
     ]
     .iter()
     .fold(0usize, |a, &b| a.saturating_add(b))
@@ -47,15 +50,24 @@ pub(crate) fn point_error2(ctx: &Ctx, i: usize, c: V3) -> f32 {
     }
 }
 
-/// Largest squared point error over all clusters.
-pub(crate) fn max_error2(ctx: &Ctx, labels: &[u32], generators: &[V3]) -> f32 {
-    let mut worst = 0.0f32;
-    for (i, &l) in labels.iter().enumerate() {
-        if let Some(&c) = generators.get(l as usize) {
-            worst = worst.max(point_error2(ctx, i, c));
+/// Largest squared point error over all clusters (parallel tasks over ranges
+/// of points; a maximum does not depend on the order it is taken in).
+pub(crate) fn max_error2(
+    ctx: &Ctx,
+    labels: &[u32],
+    generators: &[V3],
+    hooks: &dyn Progress,
+) -> f32 {
+    let worst = parallel::ranges(hooks, labels.len(), |items| {
+        let mut worst = 0.0f32;
+        for i in items {
+            if let Some(&c) = generators.get(labels[i] as usize) {
+                worst = worst.max(point_error2(ctx, i, c));
+            }
         }
-    }
-    worst
+        worst
+    });
+    worst.iter().fold(0.0f32, |a, &b| a.max(b))
 }
 
 /// Run one batch over the first `m` clusters, appending at most `limit` new
@@ -72,18 +84,30 @@ pub(crate) fn try_split_in(
     cap: usize,
     tol2: f32,
     limit: usize,
+    hooks: &dyn Progress,
 ) -> Result<usize> {
     let n = labels.len();
     let worst = s.try_alloc_slice::<u32>(m, u32::MAX)?;
     let worst_e = s.try_alloc_slice::<f32>(m, -1.0)?;
     let start = s.try_alloc_slice::<u32>(m + 1, 0)?;
+    // The point errors in parallel; each cluster's worst (the first of
+    // equals) in point order.
+    let errors = s.try_alloc_slice::<f32>(n, 0.0)?;
+    let g = &*generators;
+    parallel::rows(hooks, errors, 1, |items, out: &mut [f32]| {
+        for (i, e) in items.zip(out.iter_mut()) {
+            if let Some(&c) = g[..m.min(g.len())].get(labels[i] as usize) {
+                *e = point_error2(ctx, i, c);
+            }
+        }
+    });
     for (i, &l) in labels.iter().enumerate() {
         let j = l as usize;
         if j >= m {
             continue;
         }
         start[j + 1] += 1;
-        let e = point_error2(ctx, i, generators[j]);
+        let e = errors[i];
         if e > worst_e[j] {
             worst_e[j] = e;
             worst[j] = i as u32;

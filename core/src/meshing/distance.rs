@@ -57,11 +57,13 @@ pub fn try_point_distances_in<'b, A: Alloc<'b>>(
         };
         // Without hints (or the wrong number), every search starts afresh.
         match hints.filter(|h| h.len() == points.len()) {
-            Some(hints) => parallel::pairs(hooks, &mut out[..n], hints, |items, d, h| {
-                for ((i, d), h) in items.zip(d.iter_mut()).zip(h.iter_mut()) {
-                    (*h, *d) = search(i, Some(*h));
-                }
-            }),
+            Some(hints) => {
+                parallel::pairs(hooks, &mut out[..n], hints, |items, d, h| {
+                    for ((i, d), h) in items.zip(d.iter_mut()).zip(h.iter_mut()) {
+                        (*h, *d) = search(i, Some(*h));
+                    }
+                });
+            }
             None => {
                 parallel::rows(hooks, &mut out[..n], 1, |items, d: &mut [f32]| {
                     for (i, d) in items.zip(d.iter_mut()) {

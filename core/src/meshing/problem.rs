@@ -76,7 +76,9 @@ pub(crate) fn try_problem_in<'s, 'b, A: Alloc<'b>>(
     tick(progress, Stage::Candidates, 1, 1)?;
     tick(progress, Stage::Scoring, 0, 1)?;
     let sp = ScoreParams::from(params);
-    let scores = score::try_scores_in(s, points, &members, &cand, gens, nb.spacing, diag, &sp)?;
+    let scores = score::try_scores_in(
+        s, points, &members, &cand, gens, nb.spacing, diag, &sp, &*progress,
+    )?;
     tick(progress, Stage::Scoring, 1, 1)?;
     // Constraints: candidate edges (0 or 2 facets) and fold groups (at most one
     // facet per 45-degree wedge around an edge), ids E.. for the groups.

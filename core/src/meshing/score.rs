@@ -25,7 +25,9 @@ use crate::arena::Alloc;
 use crate::error::Result;
 use crate::math::{cross, dot, norm, point_triangle_dist2, sub, V3};
 use crate::meshing::candidates::{Candidates, Members};
+use crate::parallel;
 use crate::params::Params;
+use crate::progress::Progress;
 
 /// Lattice subdivisions of the coverage samples (45 samples).
 const LATTICE: usize = 8;
@@ -80,6 +82,7 @@ pub fn try_scores_in<'a, 'b, A: Alloc<'b>>(
     spacing: f32,
     diag: f32,
     params: &ScoreParams,
+    hooks: &dyn Progress,
 ) -> Result<Scores<'a>> {
     let f = cand.facets.len();
     let score = arena.try_alloc_slice::<f32>(f, 0.0)?;
@@ -87,47 +90,52 @@ pub fn try_scores_in<'a, 'b, A: Alloc<'b>>(
     let coverage = arena.try_alloc_slice::<f32>(f, 0.0)?;
     let eps = (params.epsilon * diag).max(f32::MIN_POSITIVE);
     let radius = 0.5 * params.alpha_scale * spacing;
-    let mut total_supports = 0u64;
-    for (i, t) in cand.facets.iter().enumerate() {
-        let (a, b, c) = (
-            generators[t[0] as usize],
-            generators[t[1] as usize],
-            generators[t[2] as usize],
-        );
-        // A frame in the triangle's plane: e1 along ab, e2 perpendicular.
-        let ab = sub(b, a);
-        let n = cross(ab, sub(c, a));
-        let (lab, ln) = (norm(ab), norm(n));
-        if !(lab > 0.0 && ln > 0.0) {
-            continue;
-        }
-        let e1 = ab.map(|v| v / lab);
-        let nn = n.map(|v| v / ln);
-        let e2 = cross(nn, e1);
-        let mut lattice = Lattice::new(
-            [0.0, 0.0],
-            [lab, 0.0],
-            [dot(sub(c, a), e1), dot(sub(c, a), e2)],
-            radius,
-        );
-        let mut fit = 0.0f32;
-        let mut count = 0u64;
-        for &cl in t {
-            for &p in members.of(cl as usize) {
-                let q = points[p as usize];
-                let d2 = point_triangle_dist2(q, a, b, c);
-                if d2 < eps * eps {
-                    fit += 1.0 - libm::sqrtf(d2) / eps;
-                    let r = sub(q, a);
-                    lattice.cover([dot(r, e1), dot(r, e2)]);
-                    count += 1;
+    // Facets are independent: parallel tasks over ranges of them (the support
+    // count is an integer sum, the same in any order).
+    let supports = parallel::pairs(hooks, fitting, coverage, |items, fits, covs| {
+        let mut supports = 0u64;
+        for ((i, fit_out), cov_out) in items.zip(fits.iter_mut()).zip(covs.iter_mut()) {
+            let t = cand.facets[i];
+            let (a, b, c) = (
+                generators[t[0] as usize],
+                generators[t[1] as usize],
+                generators[t[2] as usize],
+            );
+            // A frame in the triangle's plane: e1 along ab, e2 perpendicular.
+            let ab = sub(b, a);
+            let n = cross(ab, sub(c, a));
+            let (lab, ln) = (norm(ab), norm(n));
+            if !(lab > 0.0 && ln > 0.0) {
+                continue;
+            }
+            let e1 = ab.map(|v| v / lab);
+            let nn = n.map(|v| v / ln);
+            let e2 = cross(nn, e1);
+            let mut lattice = Lattice::new(
+                [0.0, 0.0],
+                [lab, 0.0],
+                [dot(sub(c, a), e1), dot(sub(c, a), e2)],
+                radius,
+            );
+            let mut fit = 0.0f32;
+            for &cl in &t {
+                for &p in members.of(cl as usize) {
+                    let q = points[p as usize];
+                    let d2 = point_triangle_dist2(q, a, b, c);
+                    if d2 < eps * eps {
+                        fit += 1.0 - libm::sqrtf(d2) / eps;
+                        let r = sub(q, a);
+                        lattice.cover([dot(r, e1), dot(r, e2)]);
+                        supports += 1;
+                    }
                 }
             }
+            *fit_out = fit;
+            *cov_out = lattice.share();
         }
-        total_supports += count;
-        fitting[i] = fit;
-        coverage[i] = lattice.share();
-    }
+        supports
+    });
+    let total_supports: u64 = supports.iter().sum();
     let mean = if f > 0 {
         total_supports as f32 / f as f32
     } else {
