@@ -7,7 +7,7 @@ use arena_tests::cloud;
 use std::mem::MaybeUninit;
 use vsaqem::eval::{evaluate, Evaluation};
 use vsaqem_core::sample::Shape;
-use vsaqem_core::{arena_bytes, reconstruct, Arena, Params, Reconstruction, Silent, V3};
+use vsaqem_core::{arena_bytes, reconstruct, Arena, Params, Partition, Reconstruction, Silent, V3};
 
 /// The closed generated shapes and their genus.
 const CLOSED: [(Shape, u64); 5] = [
@@ -225,4 +225,91 @@ fn the_voids_of_a_random_sampling_are_no_gaps_and_run_no_round_for_the_genus() {
             r.meshing.refine_added
         );
     }
+}
+
+/// The partition by sweeps (the default from 131,072 points) gives clusters
+/// of its own, so its meshes are judged too: valid solids of their genus, and
+/// every point in a cluster that holds its seed and is connected.
+#[test]
+fn closed_generated_shapes_partitioned_by_sweeps_are_valid_solids_of_their_genus() {
+    for (shape, genus) in CLOSED {
+        let pts = cloud(shape, 10_000, 1);
+        let adj = knn_graph(&pts);
+        for clusters in [250, 1000] {
+            let params = Params {
+                clusters,
+                partition: Partition::Sweep,
+                ..Params::default()
+            };
+            judged(
+                &pts,
+                &params,
+                1000,
+                &format!("{shape:?} {clusters} sweeps"),
+                |r, e| {
+                    let c = &r.clustered.clusters;
+                    let what = format!(
+                        "{shape:?} {clusters} sweeps: {:?} {:?} {:?}",
+                        e.topology, e.validity, r.meshing.mesh
+                    );
+                    assert!(e.is_valid_solid(Some(genus)), "not a valid solid: {what}");
+                    assert!(c.labels.iter().all(|&l| (l as usize) < c.generators.len()));
+                    for (j, &sd) in c.seeds.iter().enumerate() {
+                        assert_eq!(c.labels[sd as usize], j as u32, "{what}: seed {j}");
+                    }
+                    assert_eq!(
+                        connected_clusters(c.labels, c.seeds, &adj),
+                        c.generators.len(),
+                        "{what}: a cluster in pieces"
+                    );
+                },
+            );
+        }
+    }
+}
+
+/// The symmetrised k-NN graph of `pts` (k = 12), brute force: 10,000
+/// points are few enough for a test.
+fn knn_graph(pts: &[V3]) -> Vec<Vec<usize>> {
+    let k = Params::default().k;
+    let n = pts.len();
+    let mut adj = vec![Vec::new(); n];
+    for i in 0..n {
+        let mut d: Vec<(f32, usize)> = (0..n)
+            .filter(|&j| j != i)
+            .map(|j| {
+                let v = [0, 1, 2].map(|a| pts[i][a] - pts[j][a]);
+                (v[0] * v[0] + v[1] * v[1] + v[2] * v[2], j)
+            })
+            .collect();
+        d.select_nth_unstable_by(k, |a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        for &(_, j) in &d[..k] {
+            adj[i].push(j);
+            adj[j].push(i);
+        }
+    }
+    adj
+}
+
+/// How many clusters are connected over the graph `adj`: a search from each
+/// seed within its cluster reaches all of it.
+fn connected_clusters(labels: &[u32], seeds: &[u32], adj: &[Vec<usize>]) -> usize {
+    let mut seen = vec![false; labels.len()];
+    let mut whole = 0;
+    for (j, &sd) in seeds.iter().enumerate() {
+        let mut stack = vec![sd as usize];
+        seen[sd as usize] = true;
+        let mut reached = 0;
+        while let Some(p) = stack.pop() {
+            reached += 1;
+            for &q in &adj[p] {
+                if !seen[q] && labels[q] == j as u32 {
+                    seen[q] = true;
+                    stack.push(q);
+                }
+            }
+        }
+        whole += usize::from(reached == labels.iter().filter(|&&l| l == j as u32).count());
+    }
+    whole
 }

@@ -453,6 +453,17 @@ impl<'buf> Alloc<'buf> for Scratch<'_, 'buf> {
     }
 }
 
+/// `bytes` as atomic bytes: flags that parallel tasks set on each other's
+/// items (relaxed stores of one value, so the result does not depend on their
+/// order). Safe code cannot form such a slice in place (`AtomicU8::from_mut_slice`
+/// is unstable).
+pub fn atomic_bytes(bytes: &mut [u8]) -> &[core::sync::atomic::AtomicU8] {
+    // SAFETY: `AtomicU8` has the size, alignment and bit validity of `u8`, and
+    // the exclusive borrow of `bytes` for the result's lifetime rules out any
+    // non-atomic access while the atomic view exists.
+    unsafe { &*(bytes as *mut [u8] as *const [core::sync::atomic::AtomicU8]) }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

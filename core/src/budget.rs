@@ -219,7 +219,8 @@ fn stages(n: usize, params: &Params, reverse_edges: usize, searched: bool) -> (u
     let k = params.k.clamp(1, MAX_K);
     let (neighbours, nb_kept) = knn::neighbours_bytes_for(n, k, reverse_edges, searched);
     let quadrics = nb_kept.saturating_add(quadric::planes_bytes(n));
-    let (cl_kept, cl_scratch) = partition::partition_bytes(n, cap_bound(n, params));
+    let sweeps = params.partition.sweeps(n);
+    let (cl_kept, cl_scratch) = partition::partition_bytes(n, cap_bound(n, params), sweeps);
     let kept = quadrics.saturating_add(cl_kept);
     let clustering = kept.saturating_add(cl_scratch);
     (neighbours.max(quadrics).max(clustering), kept)

@@ -127,7 +127,7 @@ pub use meshing::problem::{selection_problem, SelectionProblem};
 pub use meshing::select::SelectStats;
 pub use meshing::MeshingStats;
 pub use parallel::Task;
-pub use params::{Params, GAP_ROUNDS, MAX_ERROR_ROUNDS, MAX_K};
+pub use params::{Params, Partition, GAP_ROUNDS, MAX_ERROR_ROUNDS, MAX_K, SWEEP_MIN_POINTS};
 pub use prepass::clean::{clean, clean_with_rows, CleanStats};
 pub use prepass::smooth::{smooth, smooth_bytes};
 pub use progress::{Flow, Progress, Silent, Stage};

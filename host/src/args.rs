@@ -7,7 +7,7 @@ use clap::Args;
 use std::mem::MaybeUninit;
 use std::path::PathBuf;
 use vsaqem_core::sample::Shape;
-use vsaqem_core::Params;
+use vsaqem_core::{Params, Partition};
 
 /// Where the points come from.
 #[derive(Args, Debug, Clone)]
@@ -143,6 +143,33 @@ pub struct ClusterArgs {
     /// Seed of the generator initialisation (same seed, same output).
     #[arg(long, default_value_t = Params::default().seed)]
     pub seed: u64,
+    /// How each pass partitions the points: `grow` (region growing, one
+    /// thread), `sweep` (synchronous sweeps on every thread, each pass from
+    /// the last one's clusters; other clusters than `grow`'s), `auto` (sweep
+    /// from 131,072 points on).
+    #[arg(long, value_enum, default_value_t = PartitionArg::Auto)]
+    pub partition: PartitionArg,
+}
+
+/// `--partition`: [`Partition`] on the command line.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PartitionArg {
+    /// Sweep from 131,072 points on, grow below.
+    Auto,
+    /// Region growing.
+    Grow,
+    /// Synchronous sweeps.
+    Sweep,
+}
+
+impl From<PartitionArg> for Partition {
+    fn from(p: PartitionArg) -> Self {
+        match p {
+            PartitionArg::Auto => Partition::Auto,
+            PartitionArg::Grow => Partition::Grow,
+            PartitionArg::Sweep => Partition::Sweep,
+        }
+    }
 }
 
 impl ClusterArgs {
@@ -158,6 +185,7 @@ impl ClusterArgs {
             tolerance: self.tolerance,
             lambda: self.lambda,
             seed: self.seed,
+            partition: self.partition.into(),
             ..Params::default()
         }
     }

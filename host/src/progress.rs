@@ -2,7 +2,6 @@
 //! and the threads core's parallel stages run on.
 
 use std::io::{IsTerminal, Write};
-use std::sync::Mutex;
 use std::time::{Duration, Instant};
 use vsaqem_core::{Flow, Progress, Stage, Task};
 
@@ -14,7 +13,8 @@ pub struct StageClock {
     pub times: Vec<(&'static str, Duration)>,
     bar: bool,
     last_draw: Option<Instant>,
-    threads: usize,
+    /// The threads core's parallel stages run on (none: the calling thread).
+    pool: Option<rayon::ThreadPool>,
 }
 
 impl StageClock {
@@ -26,16 +26,25 @@ impl StageClock {
             times: Vec::new(),
             bar: show_bar && std::io::stderr().is_terminal(),
             last_draw: None,
-            threads: 1,
+            pool: None,
         }
     }
 
-    /// The same clock, running core's parallel stages on `threads` threads.
+    /// The same clock, running core's parallel stages on `threads` threads
+    /// (the calling thread alone when 1, or when the threads cannot be
+    /// started). The threads are started once and wait between stages: a
+    /// partition runs dozens of short parallel sweeps.
     pub fn with_threads(self, threads: usize) -> Self {
-        StageClock {
-            threads: threads.max(1),
-            ..self
-        }
+        let pool = (threads > 1)
+            .then(|| {
+                rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads)
+                    .thread_name(|i| format!("vsaqem-{i}"))
+                    .build()
+                    .ok()
+            })
+            .flatten();
+        StageClock { pool, ..self }
     }
 
     /// Close the running stage (call after core returns).
@@ -136,34 +145,21 @@ impl Progress for StageClock {
     }
 
     fn run(&self, tasks: &mut [&mut dyn Task]) {
-        run_tasks(self.threads, tasks);
+        run_tasks(self.pool.as_ref(), tasks);
     }
 }
 
-/// Runs each task once on up to `threads` scoped threads (the calling thread
-/// among them), each taking the next task left until none is.
-pub fn run_tasks(threads: usize, tasks: &mut [&mut dyn Task]) {
-    let threads = threads.min(tasks.len());
-    if threads <= 1 {
-        tasks.iter_mut().for_each(|t| t.run());
-        return;
+/// Runs each task once, on the threads of `pool` or, without one, one after
+/// another on the calling thread. Which thread runs a task does not matter:
+/// core combines the tasks' results in task order.
+pub fn run_tasks(pool: Option<&rayon::ThreadPool>, tasks: &mut [&mut dyn Task]) {
+    use rayon::prelude::*;
+    match pool {
+        Some(pool) if tasks.len() > 1 => {
+            pool.install(|| tasks.par_iter_mut().with_max_len(1).for_each(|t| t.run()))
+        }
+        _ => tasks.iter_mut().for_each(|t| t.run()),
     }
-    let queue = Mutex::new(tasks.iter_mut());
-    let work = || loop {
-        // Core never panics, so the lock is never poisoned; if it were, the
-        // queue is still sound to take from.
-        let next = queue.lock().unwrap_or_else(|e| e.into_inner()).next();
-        match next {
-            Some(t) => t.run(),
-            None => break,
-        }
-    };
-    std::thread::scope(|s| {
-        for _ in 1..threads {
-            s.spawn(work);
-        }
-        work();
-    });
 }
 
 /// The stage times of a run, taken once ([`StageClock::timings`]), so the text and

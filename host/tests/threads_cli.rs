@@ -50,7 +50,18 @@ const CASES: [(&str, &[&str]); 4] = [
 
 #[test]
 fn the_mesh_is_byte_identical_on_1_2_3_and_8_threads() {
-    let d = dir("threads", "identical");
+    identical_on_every_thread_count("identical", &[]);
+}
+
+/// The sweeps of `--partition sweep` (the default from 131,072 points) run on
+/// every thread: they too must give the same bytes.
+#[test]
+fn the_mesh_partitioned_by_sweeps_is_byte_identical_on_1_2_3_and_8_threads() {
+    identical_on_every_thread_count("sweeps", &["--partition", "sweep"]);
+}
+
+fn identical_on_every_thread_count(tag: &str, extra: &[&str]) {
+    let d = dir("threads", tag);
     for (name, args) in CASES {
         let mut first: Option<Vec<u8>> = None;
         for threads in ["1", "2", "3", "8"] {
@@ -58,6 +69,7 @@ fn the_mesh_is_byte_identical_on_1_2_3_and_8_threads() {
             let run = bin()
                 .args(["reconstruct", "-q", "--threads", threads])
                 .args(args)
+                .args(extra)
                 .arg("-o")
                 .arg(&out)
                 .output()

@@ -20,6 +20,7 @@ pub mod normals;
 pub mod partition;
 pub mod quadric;
 pub mod split;
+pub(crate) mod sweep;
 
 use crate::arena::Arena;
 use crate::error::{Error, Result};

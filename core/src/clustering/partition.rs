@@ -27,8 +27,9 @@
 
 use crate::arena::{padded_bytes, Arena, Scratch};
 use crate::clustering::knn::Neighbours;
-use crate::clustering::quadric::{Planes, Quadric};
+use crate::clustering::quadric::{plane_eval, Planes, Quadric};
 use crate::clustering::split;
+use crate::clustering::sweep::{self, Start};
 use crate::error::Result;
 use crate::math::{dist2, dot, sub, V3};
 use crate::parallel;
@@ -133,19 +134,31 @@ impl<'p, 'a> Ctx<'p, 'a> {
     pub fn cost(&self, i: usize, c: V3) -> f32 {
         self.planes.diffused_qem(self.nb, i, c) + self.lambda_w * dist2(self.points[i], c)
     }
+
+    /// A lower bound of [`Ctx::cost`] from one plane instead of `k + 1`: the
+    /// point's own plane term and the λ term (the terms left out are squares,
+    /// and rounding a sum of non-negative terms is monotone).
+    #[inline]
+    pub fn cost_floor(&self, i: usize, c: V3) -> f32 {
+        let e = plane_eval(self.planes.planes[i], c);
+        e * e + self.lambda_w * dist2(self.points[i], c)
+    }
 }
 
 /// Arena bytes of clustering `n` points into at most `cap` clusters (the
-/// limit, [`Params::cluster_limit`]): `(kept,
+/// limit, [`Params::cluster_limit`]), partitioned by sweeps when `sweeps`
+/// ([`Partition::sweeps`](crate::params::Partition::sweeps)): `(kept,
 /// scratch)`. Kept: labels (4 per point), generators and seeds, and their
-/// backups for undoing a splitting batch (32 per cluster of the cap). Scratch:
+/// backups for undoing a splitting batch (32 per cluster of the cap); with
+/// sweeps also the border flags and the labels' backup (5 per point). Scratch:
 /// the largest of one step's, each in a scope of its own: the components (4 per
 /// point), the initial seeds (9 per point), a partition (16 per point: cost,
-/// rival, heap), a generator update (member lists: 4 per point, 8 per
+/// rival, heap; sweeps: label and cost, four flags, a search queue, and 9 per
+/// cluster), a generator update (member lists: 4 per point, 8 per
 /// cluster), a splitting batch
 /// ([`split::split_bytes`]) and a refinement ([`ClusterState::refine`], 9 per
 /// cluster, then a partition). Keep in step with the functions named.
-pub fn partition_bytes(n: usize, cap: usize) -> (usize, usize) {
+pub fn partition_bytes(n: usize, cap: usize, sweeps: bool) -> (usize, usize) {
     let sum = |list: &[usize]| list.iter().fold(0usize, |a, &b| a.saturating_add(b));
     let kept = sum(&[
         padded_bytes::<u32>(n),   // labels
@@ -153,14 +166,23 @@ pub fn partition_bytes(n: usize, cap: usize) -> (usize, usize) {
         padded_bytes::<u32>(cap), // seeds
         padded_bytes::<V3>(cap),  // backup_g
         padded_bytes::<u32>(cap), // backup_s
+        if sweeps {
+            padded_bytes::<u8>(n).saturating_add(padded_bytes::<u32>(n)) // border, backup_l
+        } else {
+            0
+        },
     ]);
     let components = padded_bytes::<u32>(n);
     let seeds = sum(&[components, padded_bytes::<u32>(n), padded_bytes::<u8>(n)]);
-    let partition = sum(&[
-        padded_bytes::<f32>(n),
-        padded_bytes::<u32>(n),
-        padded_bytes::<u64>(n),
-    ]);
+    let partition = if sweeps {
+        sweep::partition_bytes(n, cap)
+    } else {
+        sum(&[
+            padded_bytes::<f32>(n),
+            padded_bytes::<u32>(n),
+            padded_bytes::<u64>(n),
+        ])
+    };
     let update = sum(&[
         padded_bytes::<u32>(cap.saturating_add(1)), // start
         padded_bytes::<u32>(n),                     // members
@@ -180,6 +202,10 @@ pub fn partition_bytes(n: usize, cap: usize) -> (usize, usize) {
 /// data uncovered ([`ClusterState::refine`]).
 pub struct ClusterState<'a> {
     labels: &'a mut [u32],
+    /// Per point, for sweeps: whether a neighbour may be of another cluster.
+    border: &'a mut [u8],
+    /// Whether passes partition by sweeps ([`Partition::sweeps`]).
+    sweeps: bool,
     generators: &'a mut [V3],
     seeds: &'a mut [u32],
     m: usize,
@@ -427,8 +453,12 @@ impl<'a> ClusterState<'a> {
             labels: &mut *self.labels,
             generators: &mut *self.generators,
             seeds: &mut *self.seeds,
+            border: &mut *self.border,
+            sweeps: self.sweeps,
         };
-        self.stats.energy = repartition(arena, ctx, &mut st, grown)?;
+        if let Some(e) = repartition(arena, ctx, &mut st, grown, &*progress)? {
+            self.stats.energy = e;
+        }
         if let Some(params) = params {
             let planned = self.stats.passes + params.split_iterations.max(1);
             passes(
@@ -443,6 +473,9 @@ impl<'a> ClusterState<'a> {
             )?;
         }
         self.stats.clusters = grown as u32;
+        if self.sweeps {
+            self.stats.energy = energy(ctx, self.labels, &self.generators[..grown], &*progress);
+        }
         self.stats.max_error = relative(
             split::max_error2(ctx, self.labels, &self.generators[..grown], &*progress),
             Bounds::of(ctx.points).diag,
@@ -494,13 +527,26 @@ pub fn try_cluster_state_in<'a>(
         stats.noise = relative(planes.noise * planes.noise, diag);
         t * t
     };
-    // State: generators + seeds; labels are always their partition, so the state
-    // can be restored exactly from a copy of the first two.
-    stats.energy = arena.scratch(|s| partition(s, &ctx, &generators[..m], &seeds[..m], labels))?;
+    // State: generators and seeds, and for sweeps labels too (a sweep starts
+    // from the labels before it); region growing's labels are always their
+    // partition, so its state is restored exactly from a copy of the first two.
+    let sweeps = params.partition.sweeps(n);
+    let border = arena.try_alloc_slice::<u8>(if sweeps { n } else { 0 }, 1)?;
+    arena.scratch(|s| {
+        if sweeps {
+            let (g, sd) = (&generators[..m], &seeds[..m]);
+            sweep::partition(s, &ctx, g, sd, labels, border, Start::Fresh, &*progress)
+        } else {
+            stats.energy = partition(s, &ctx, &generators[..m], &seeds[..m], labels)?;
+            Ok(())
+        }
+    })?;
     let mut st = State {
         labels,
         generators,
         seeds,
+        border,
+        sweeps,
     };
     let pass = |st: &mut State,
                 m: usize,
@@ -514,6 +560,7 @@ pub fn try_cluster_state_in<'a>(
     if params.tolerance > 0.0 && params.split_rounds > 0 {
         let backup_g = arena.try_alloc_slice::<V3>(cap, [0.0; 3])?;
         let backup_s = arena.try_alloc_slice::<u32>(cap, 0)?;
+        let backup_l = arena.try_alloc_slice::<u32>(if sweeps { n } else { 0 }, NONE)?;
         let mut limit = usize::MAX;
         let mut relax = true;
         let mut attempts = 0;
@@ -521,6 +568,9 @@ pub fn try_cluster_state_in<'a>(
             attempts += 1;
             backup_g[..m].copy_from_slice(&st.generators[..m]);
             backup_s[..m].copy_from_slice(&st.seeds[..m]);
+            if sweeps {
+                backup_l.copy_from_slice(st.labels);
+            }
             let added = arena.scratch(|s| {
                 split::try_split_in(
                     s,
@@ -539,7 +589,9 @@ pub fn try_cluster_state_in<'a>(
                 break;
             }
             let grown = m + added;
-            stats.energy = repartition(arena, &ctx, &mut st, grown)?;
+            if let Some(e) = repartition(arena, &ctx, &mut st, grown, &*progress)? {
+                stats.energy = e;
+            }
             if relax {
                 pass(
                     &mut st,
@@ -568,7 +620,14 @@ pub fn try_cluster_state_in<'a>(
                 // half the batch.
                 st.generators[..m].copy_from_slice(&backup_g[..m]);
                 st.seeds[..m].copy_from_slice(&backup_s[..m]);
-                stats.energy = repartition(arena, &ctx, &mut st, m)?;
+                if sweeps {
+                    // The labels before the batch; their border flags are
+                    // gone with the batch: every point is looked at again.
+                    st.labels.copy_from_slice(backup_l);
+                    st.border.fill(1);
+                } else if let Some(e) = repartition(arena, &ctx, &mut st, m, &*progress)? {
+                    stats.energy = e;
+                }
                 stats.rejected_batches += 1;
                 if relax {
                     relax = false;
@@ -587,14 +646,21 @@ pub fn try_cluster_state_in<'a>(
         stats.error_per_round[r] = stats.max_error;
     }
     stats.clusters = m as u32;
+    if sweeps {
+        stats.energy = energy(&ctx, st.labels, &st.generators[..m], &*progress);
+    }
     tick(progress, Stage::Clustering, planned as u64, planned as u64)?;
     let State {
         labels,
         generators,
         seeds,
+        border,
+        sweeps,
     } = st;
     Ok(ClusterState {
         labels,
+        border,
+        sweeps,
         generators,
         seeds,
         m,
@@ -603,17 +669,46 @@ pub fn try_cluster_state_in<'a>(
     })
 }
 
-/// Labels, generators and seeds of a run.
+/// Labels, generators and seeds of a run, and for sweeps which points lie on
+/// a border between clusters.
 struct State<'x> {
     labels: &'x mut [u32],
     generators: &'x mut [V3],
     seeds: &'x mut [u32],
+    border: &'x mut [u8],
+    sweeps: bool,
 }
 
 /// Partition the points among the first `m` clusters of `st` (scratch from
-/// `arena`); returns the energy.
-fn repartition(arena: &Arena, ctx: &Ctx, st: &mut State, m: usize) -> Result<f64> {
-    arena.scratch(|s| partition(s, ctx, &st.generators[..m], &st.seeds[..m], st.labels))
+/// `arena`); returns the energy of region growing (sweeps leave it to
+/// [`energy`], once at the end: it would cost a pass over the points).
+fn repartition(
+    arena: &Arena,
+    ctx: &Ctx,
+    st: &mut State,
+    m: usize,
+    hooks: &dyn Progress,
+) -> Result<Option<f64>> {
+    let (g, s_) = (&st.generators[..m], &st.seeds[..m]);
+    arena.scratch(|s| {
+        if st.sweeps {
+            sweep::partition(s, ctx, g, s_, st.labels, st.border, Start::Warm, hooks)?;
+            Ok(None)
+        } else {
+            partition(s, ctx, g, s_, st.labels).map(Some)
+        }
+    })
+}
+
+/// The energy of a partition: the sum of its points' costs (parallel tasks
+/// over ranges of points, summed in task order).
+fn energy(ctx: &Ctx, labels: &[u32], generators: &[V3], hooks: &dyn Progress) -> f64 {
+    let sums = parallel::ranges(hooks, labels.len(), |items| {
+        items
+            .filter_map(|p| Some(ctx.cost(p, *generators.get(labels[p] as usize)?) as f64))
+            .sum::<f64>()
+    });
+    sums.iter().sum()
 }
 
 /// Up to `count` update + partition passes over the first `m` clusters; stops
@@ -652,7 +747,9 @@ fn passes(
             stats.converged = true;
             break;
         }
-        stats.energy = repartition(arena, ctx, st, m)?;
+        if let Some(e) = repartition(arena, ctx, st, m, &*progress)? {
+            stats.energy = e;
+        }
     }
     Ok(())
 }
@@ -1077,6 +1174,8 @@ mod tests {
         assert_eq!(alone, 1, "p is not alone in its cluster");
         let mut state = ClusterState {
             labels,
+            border: &mut [],
+            sweeps: false,
             generators,
             seeds,
             m,

@@ -1,0 +1,501 @@
+//! The partition by synchronous sweeps ([`Partition::Sweep`](crate::params::Partition::Sweep)): the same
+//! labels for any thread count, warm-started from the partition before, so
+//! a pass after the first recomputes only what changed near the borders
+//! between clusters.
+
+use crate::arena::{atomic_bytes, padded_bytes, Scratch};
+use crate::clustering::partition::{Ctx, NONE};
+use crate::error::Result;
+use crate::math::V3;
+use crate::parallel;
+use crate::progress::Progress;
+use core::sync::atomic::{AtomicU8, Ordering::Relaxed};
+
+/// Scratch bytes of [`partition`] over `n` points and at most `m` clusters:
+/// labels and costs (8 per point), four flags (4 per point), a flag per
+/// cluster, and [`connect`]'s search (4 per point, 4 per cluster). Keep in
+/// step with the functions named.
+pub(crate) fn partition_bytes(n: usize, m: usize) -> usize {
+    [
+        padded_bytes::<(u32, f32)>(n),
+        4 * padded_bytes::<u8>(n),
+        padded_bytes::<u8>(m),
+        padded_bytes::<u32>(m.saturating_add(1)),
+        padded_bytes::<u32>(n),
+    ]
+    .iter()
+    .fold(0usize, |a, &b| a.saturating_add(b))
+}
+
+/// How a partition starts.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(crate) enum Start {
+    /// From the seeds alone: every other point unlabelled.
+    Fresh,
+    /// From the labels the points have (those of clusters past the first `m`
+    /// unlabelled), after the generators moved or were added: only what
+    /// changed is recomputed.
+    Warm,
+}
+
+/// A point's label and cost after the sweep being computed (its current ones
+/// where the sweep changes nothing).
+#[derive(Clone, Copy)]
+struct Next {
+    label: u32,
+    cost: f32,
+}
+
+const UNLABELLED: Next = Next {
+    label: NONE,
+    cost: f32::INFINITY,
+};
+
+impl Next {
+    /// Whether `(cost, label)` is below `self`'s: the lower label among equal costs.
+    fn beaten_by(&self, cost: f32, label: u32) -> bool {
+        cost < self.cost || (cost == self.cost && label < self.label)
+    }
+}
+
+/// Partition the points among `generators` (seed Eq. 4): every point takes the
+/// cluster of least cost among its own and its neighbours' on the symmetrised
+/// k-NN graph, every cluster holds its seed and is connected.
+///
+/// Computed by synchronous sweeps, so the labels are the same for any thread
+/// count: a sweep reads only the labels the sweep before left, and each
+/// parallel task writes only its own points.
+/// - Seeds take their cluster first and keep it, so no cluster loses its seed.
+/// - A point is due in a sweep when a neighbour took a new label in the sweep
+///   before, and is offered those labels; in the first sweep of a warm start,
+///   the points of `border` are due and offered all their neighbours' labels
+///   (a point whose neighbours all share its label has nothing to change).
+///   It takes the cheapest if cheaper than its own (ties to the lower label).
+///   Every label a neighbour ever holds is thus offered once, and each change
+///   lowers the point's `(cost, label)`, so the sweeps end.
+/// - A point may then be cut off from its seed (the neighbours it was reached
+///   through moved on): [`connect`] finds such points and grows them again.
+/// - `border` ends marking every point with a neighbour of another cluster
+///   (and maybe others): each point's last look at its neighbours comes after
+///   their last change.
+///
+/// Memory: [`partition_bytes`] of scratch.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn partition(
+    s: &Scratch,
+    ctx: &Ctx,
+    generators: &[V3],
+    seeds: &[u32],
+    labels: &mut [u32],
+    border: &mut [u8],
+    start: Start,
+    hooks: &dyn Progress,
+) -> Result<()> {
+    let n = labels.len();
+    let m = generators.len();
+    let next = s.try_alloc_slice(n, UNLABELLED)?;
+    let mut offered = atomic_bytes(s.try_alloc_slice::<u8>(n, 0)?);
+    let mut changing = atomic_bytes(s.try_alloc_slice::<u8>(n, 0)?);
+    let mut due = atomic_bytes(s.try_alloc_slice::<u8>(n, 0)?);
+    let mut due_next = atomic_bytes(s.try_alloc_slice::<u8>(n, 0)?);
+    // Clusters that lost a point: only those can have been cut in two.
+    let lost = atomic_bytes(s.try_alloc_slice::<u8>(m, 0)?);
+    let border = atomic_bytes(border);
+    let pinned = |p: usize, l: u32| seeds.get(l as usize) == Some(&(p as u32));
+    match start {
+        Start::Fresh => labels.fill(NONE),
+        Start::Warm => {
+            for (l, b) in labels.iter_mut().zip(border) {
+                if *l as usize >= m {
+                    *l = NONE;
+                    b.store(1, Relaxed);
+                }
+            }
+        }
+    }
+    for (j, &sd) in seeds.iter().enumerate() {
+        let Some(l) = labels.get_mut(sd as usize) else {
+            continue;
+        };
+        if *l != j as u32 {
+            if let Some(was) = lost.get(*l as usize) {
+                was.store(1, Relaxed);
+            }
+            *l = j as u32;
+            for q in ctx.nb.symmetric(sd as usize) {
+                border[q as usize].store(1, Relaxed);
+            }
+        }
+        border[sd as usize].store(1, Relaxed);
+    }
+    let read = &*labels;
+    parallel::rows(hooks, next, 1, |items, rows: &mut [Next]| {
+        for (p, nx) in items.zip(rows.iter_mut()) {
+            let l = read[p];
+            if (l as usize) < m {
+                // Costed when first needed.
+                *nx = Next {
+                    label: l,
+                    cost: f32::NAN,
+                };
+            }
+            let warm = start == Start::Warm;
+            if warm || pinned(p, l) {
+                offered[p].store(1, Relaxed);
+            }
+            if warm && border[p].load(Relaxed) != 0 {
+                due[p].store(1, Relaxed);
+            }
+        }
+    });
+    if start == Start::Fresh {
+        for &sd in seeds {
+            for q in ctx.nb.symmetric(sd as usize) {
+                due[q as usize].store(1, Relaxed);
+            }
+        }
+    }
+    loop {
+        let read = &*labels;
+        let changes = parallel::rows(hooks, next, 1, |items, rows: &mut [Next]| {
+            let mut changes = 0u32;
+            for (p, nx) in items.zip(rows.iter_mut()) {
+                if due[p].load(Relaxed) == 0 || pinned(p, read[p]) {
+                    continue;
+                }
+                if nx.cost.is_nan() {
+                    nx.cost = generators
+                        .get(nx.label as usize)
+                        .map_or(f32::INFINITY, |&g| ctx.cost(p, g));
+                }
+                let mut best = *nx;
+                // Whether a neighbour is of another cluster.
+                let mut mixed = false;
+                // The labels costed so far (most neighbours share a few).
+                let mut tried = [NONE; 4];
+                for q in ctx.nb.symmetric(p) {
+                    let q = q as usize;
+                    let c = read[q];
+                    mixed |= c != nx.label;
+                    if c == nx.label || offered[q].load(Relaxed) == 0 || tried.contains(&c) {
+                        continue;
+                    }
+                    tried.rotate_right(1);
+                    tried[0] = c;
+                    let Some(&g) = generators.get(c as usize) else {
+                        continue;
+                    };
+                    if best.beaten_by(ctx.cost_floor(p, g), c) {
+                        let e = ctx.cost(p, g);
+                        if best.beaten_by(e, c) {
+                            best = Next { label: c, cost: e };
+                        }
+                    }
+                }
+                if best.label != nx.label {
+                    if let Some(was) = lost.get(nx.label as usize) {
+                        was.store(1, Relaxed);
+                    }
+                    *nx = best;
+                    changing[p].store(1, Relaxed);
+                    for q in ctx.nb.symmetric(p) {
+                        due_next[q as usize].store(1, Relaxed);
+                    }
+                    changes += 1;
+                    mixed = true;
+                }
+                border[p].store(u8::from(mixed), Relaxed);
+            }
+            changes
+        });
+        let next = &*next;
+        parallel::rows(hooks, labels, 1, |items, rows: &mut [u32]| {
+            for (p, l) in items.zip(rows.iter_mut()) {
+                if changing[p].load(Relaxed) != 0 {
+                    *l = next[p].label;
+                }
+                offered[p].store(0, Relaxed);
+                due[p].store(0, Relaxed);
+            }
+        });
+        core::mem::swap(&mut offered, &mut changing);
+        core::mem::swap(&mut due, &mut due_next);
+        if changes.iter().all(|&c| c == 0) {
+            break;
+        }
+    }
+    connect(
+        s, ctx, generators, seeds, labels, next, due, lost, border, hooks,
+    )
+}
+
+/// Makes every cluster connected (see [`partition`]), marking the points it
+/// moves and their neighbours in `border`: marks in `reached` (all
+/// 0 on entry, and on return) the points a search from their seed within
+/// their cluster reaches, for the clusters `lost` marks (the others only ever
+/// grew, each point from a neighbour that kept the label), unlabels the
+/// points not reached, and grows those again, each keeping the cheapest label
+/// its labelled neighbours offer.
+#[allow(clippy::too_many_arguments)]
+fn connect(
+    s: &Scratch,
+    ctx: &Ctx,
+    generators: &[V3],
+    seeds: &[u32],
+    labels: &mut [u32],
+    next: &mut [Next],
+    reached: &[AtomicU8],
+    lost: &[AtomicU8],
+    border: &[AtomicU8],
+    hooks: &dyn Progress,
+) -> Result<()> {
+    let m = generators.len();
+    let lost = |l: u32| lost.get(l as usize).is_some_and(|f| f.load(Relaxed) != 0);
+    if !(0..m as u32).any(lost) {
+        return Ok(());
+    }
+    // Cluster j's search queue is queue[start[j]..start[j + 1]]: its members'
+    // count.
+    let start = s.try_alloc_slice::<u32>(m + 1, 0)?;
+    for &l in labels.iter() {
+        if let Some(c) = start.get_mut(l as usize + 1).filter(|_| lost(l)) {
+            *c += 1;
+        }
+    }
+    for j in 0..m {
+        start[j + 1] += start[j];
+    }
+    let queue = s.try_alloc_slice::<u32>(start[m] as usize, 0)?;
+    let read = &*labels;
+    parallel::segments(hooks, queue, start, |clusters, part: &mut [u32]| {
+        let mut at = 0;
+        for j in clusters {
+            let size = (start[j + 1] - start[j]) as usize;
+            let Some(queue) = part.get_mut(at..at + size) else {
+                break;
+            };
+            at += size;
+            let sd = seeds[j] as usize;
+            if size == 0 || !lost(j as u32) || read.get(sd) != Some(&(j as u32)) {
+                continue;
+            }
+            queue[0] = sd as u32;
+            reached[sd].store(1, Relaxed);
+            let (mut head, mut tail) = (0, 1);
+            while head < tail {
+                let p = queue[head] as usize;
+                head += 1;
+                for q in ctx.nb.symmetric(p) {
+                    let qi = q as usize;
+                    if read[qi] == j as u32 && reached[qi].load(Relaxed) == 0 && tail < size {
+                        reached[qi].store(1, Relaxed);
+                        queue[tail] = q;
+                        tail += 1;
+                    }
+                }
+            }
+        }
+    });
+    let cut = parallel::rows(hooks, labels, 1, |items, rows: &mut [u32]| {
+        let mut cut = 0usize;
+        for (p, l) in items.zip(rows.iter_mut()) {
+            if reached[p].load(Relaxed) == 0 && lost(*l) {
+                cut += 1;
+                *l = NONE;
+            }
+            reached[p].store(0, Relaxed);
+        }
+        cut
+    });
+    let mut left: usize = cut.iter().sum();
+    while left > 0 {
+        let read = &*labels;
+        let grown = parallel::rows(hooks, next, 1, |items, rows: &mut [Next]| {
+            let mut grown = 0usize;
+            for (p, nx) in items.zip(rows.iter_mut()) {
+                if read[p] != NONE {
+                    continue;
+                }
+                let mut best = UNLABELLED;
+                for q in ctx.nb.symmetric(p) {
+                    let c = read[q as usize];
+                    let Some(&g) = generators.get(c as usize).filter(|_| c != best.label) else {
+                        continue;
+                    };
+                    let e = ctx.cost(p, g);
+                    if best.label == NONE || best.beaten_by(e, c) {
+                        best = Next { label: c, cost: e };
+                    }
+                }
+                if best.label != NONE {
+                    *nx = best;
+                    reached[p].store(1, Relaxed);
+                    border[p].store(1, Relaxed);
+                    for q in ctx.nb.symmetric(p) {
+                        border[q as usize].store(1, Relaxed);
+                    }
+                    grown += 1;
+                }
+            }
+            grown
+        });
+        let next = &*next;
+        parallel::rows(hooks, labels, 1, |items, rows: &mut [u32]| {
+            for (p, l) in items.zip(rows.iter_mut()) {
+                if reached[p].load(Relaxed) != 0 {
+                    *l = next[p].label;
+                    reached[p].store(0, Relaxed);
+                }
+            }
+        });
+        let grown: usize = grown.iter().sum();
+        if grown == 0 {
+            // Points in no seed's component (none: every component holds
+            // one) keep NONE.
+            break;
+        }
+        left = left.saturating_sub(grown);
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::arena::Arena;
+    use crate::clustering::knn::try_neighbours_in;
+    use crate::clustering::quadric::try_planes_in;
+    use crate::parallel::Task;
+    use crate::params::Params;
+    use crate::progress::{Flow, Silent, Stage};
+    use crate::rng::Rng;
+    use crate::sample::{fill, Shape};
+    use core::mem::MaybeUninit;
+    use std::vec;
+    use std::vec::Vec;
+
+    /// Runs the tasks last first.
+    struct Backwards;
+    impl Progress for Backwards {
+        fn report(&mut self, _: Stage, _: u64, _: u64) -> Flow {
+            Flow::Continue
+        }
+        fn run(&self, tasks: &mut [&mut dyn Task]) {
+            tasks.iter_mut().rev().for_each(|t| t.run());
+        }
+    }
+
+    /// Runs the tasks on three threads at once.
+    struct Threads;
+    impl Progress for Threads {
+        fn report(&mut self, _: Stage, _: u64, _: u64) -> Flow {
+            Flow::Continue
+        }
+        fn run(&self, tasks: &mut [&mut dyn Task]) {
+            let chunk = tasks.len().div_ceil(3).max(1);
+            std::thread::scope(|s| {
+                for part in tasks.chunks_mut(chunk) {
+                    s.spawn(move || part.iter_mut().for_each(|t| t.run()));
+                }
+            });
+        }
+    }
+
+    /// A fresh partition, then a warm one after every generator moved: the
+    /// labels do not depend on the order or the threads the tasks run on,
+    /// every point is labelled, every seed keeps its cluster, every cluster
+    /// is connected, and every point with a neighbour of another cluster is
+    /// flagged on the border.
+    #[test]
+    fn sweeps_give_the_same_connected_clusters_in_any_task_order() {
+        let mut buf = vec![MaybeUninit::uninit(); 16 * 1024 * 1024];
+        let arena = Arena::new(&mut buf);
+        let mut points = vec![[0.0f32; 3]; 6000];
+        fill(Shape::Torus, 3, 0.0, &mut points);
+        let params = Params::default();
+        let nb = try_neighbours_in(&arena, &points, params.k, &mut Silent).unwrap();
+        let planes = try_planes_in(&arena, &points, None, &nb, &mut Silent).unwrap();
+        let ctx = Ctx::new(&points, &nb, &planes, &params);
+        let n = points.len();
+        let mut rng = Rng::new(5);
+        let seeds: Vec<u32> = {
+            let mut all: Vec<u32> = (0..n as u32).collect();
+            for i in 0..120 {
+                let j = i + rng.below((n - i) as u32) as usize;
+                all.swap(i, j);
+            }
+            all[..120].to_vec()
+        };
+        let generators: Vec<V3> = seeds.iter().map(|&s| points[s as usize]).collect();
+        let moved: Vec<V3> = generators
+            .iter()
+            .map(|g| [g[0] + 0.01, g[1] - 0.005, g[2]])
+            .collect();
+        let run = |hooks: &dyn Progress| {
+            let mut labels = vec![NONE; n];
+            let mut border = vec![1u8; n];
+            arena
+                .scratch(|s| {
+                    partition(
+                        s,
+                        &ctx,
+                        &generators,
+                        &seeds,
+                        &mut labels,
+                        &mut border,
+                        Start::Fresh,
+                        hooks,
+                    )
+                })
+                .unwrap();
+            let fresh = (labels.clone(), border.clone());
+            arena
+                .scratch(|s| {
+                    partition(
+                        s,
+                        &ctx,
+                        &moved,
+                        &seeds,
+                        &mut labels,
+                        &mut border,
+                        Start::Warm,
+                        hooks,
+                    )
+                })
+                .unwrap();
+            (fresh, (labels, border))
+        };
+        let (fresh, warm) = run(&Silent);
+        assert_eq!(run(&Backwards), (fresh.clone(), warm.clone()));
+        assert_eq!(run(&Threads), (fresh.clone(), warm.clone()));
+        assert_ne!(fresh, warm, "moving every generator changed nothing");
+        for (labels, border) in [&fresh, &warm] {
+            assert!(labels.iter().all(|&l| (l as usize) < seeds.len()));
+            for (j, &sd) in seeds.iter().enumerate() {
+                assert_eq!(labels[sd as usize], j as u32);
+                // A search from the seed within the cluster reaches all of it.
+                let mut seen = vec![false; n];
+                let mut stack = vec![sd as usize];
+                seen[sd as usize] = true;
+                let mut reached = 0;
+                while let Some(p) = stack.pop() {
+                    reached += 1;
+                    for q in nb.symmetric(p) {
+                        let q = q as usize;
+                        if !seen[q] && labels[q] == j as u32 {
+                            seen[q] = true;
+                            stack.push(q);
+                        }
+                    }
+                }
+                let size = labels.iter().filter(|&&l| l == j as u32).count();
+                assert_eq!(reached, size, "cluster {j} in pieces");
+            }
+            for p in 0..n {
+                if nb.symmetric(p).any(|q| labels[q as usize] != labels[p]) {
+                    assert_eq!(border[p], 1, "point {p} on a border, not flagged");
+                }
+            }
+        }
+    }
+}
