@@ -464,6 +464,28 @@ pub fn atomic_bytes(bytes: &mut [u8]) -> &[core::sync::atomic::AtomicU8] {
     unsafe { &*(bytes as *mut [u8] as *const [core::sync::atomic::AtomicU8]) }
 }
 
+/// `values` as atomic `u16`s (see [`atomic_bytes`]).
+pub fn atomic_u16s(values: &mut [u16]) -> &[core::sync::atomic::AtomicU16] {
+    // SAFETY: `AtomicU16` has the size, alignment and bit validity of `u16`;
+    // the exclusive borrow rules out non-atomic access meanwhile.
+    unsafe { &*(values as *mut [u16] as *const [core::sync::atomic::AtomicU16]) }
+}
+
+/// `values` as atomic `u32`s (see [`atomic_bytes`]); [`labels_of`] gives
+/// them back.
+pub fn atomic_u32s(values: &mut [u32]) -> &mut [core::sync::atomic::AtomicU32] {
+    // SAFETY: `AtomicU32` has the size, alignment and bit validity of `u32`,
+    // and the result holds the exclusive borrow.
+    unsafe { &mut *(values as *mut [u32] as *mut [core::sync::atomic::AtomicU32]) }
+}
+
+/// Atomic `u32`s as plain values again, once no other thread holds them.
+pub fn labels_of(values: &mut [core::sync::atomic::AtomicU32]) -> &mut [u32] {
+    // SAFETY: as for `atomic_u32s`, the other way; the exclusive borrow means
+    // no atomic access can happen meanwhile.
+    unsafe { &mut *(values as *mut [core::sync::atomic::AtomicU32] as *mut [u32]) }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -153,8 +153,8 @@ impl<'p, 'a> Ctx<'p, 'a> {
 /// sweeps also the border flags and the labels' backup (5 per point). Scratch:
 /// the largest of one step's, each in a scope of its own: the components (4 per
 /// point), the initial seeds (9 per point), a partition (16 per point: cost,
-/// rival, heap; sweeps: label and cost, four flags, a search queue, and 9 per
-/// cluster), a generator update (member lists: 4 per point, 8 per
+/// rival, heap; sweeps: label and cost, stamps, a search, 19 per point and
+/// 9 per cluster), a generator update (member lists: 4 per point, 8 per
 /// cluster), a splitting batch
 /// ([`split::split_bytes`]) and a refinement ([`ClusterState::refine`], 9 per
 /// cluster, then a partition). Keep in step with the functions named.

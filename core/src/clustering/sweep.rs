@@ -3,29 +3,38 @@
 //! a pass after the first recomputes only what changed near the borders
 //! between clusters.
 
-use crate::arena::{atomic_bytes, padded_bytes, Scratch};
+use crate::arena::{atomic_bytes, atomic_u16s, atomic_u32s, labels_of, padded_bytes, Scratch};
 use crate::clustering::partition::{Ctx, NONE};
 use crate::error::Result;
 use crate::math::V3;
 use crate::parallel;
 use crate::progress::Progress;
-use core::sync::atomic::{AtomicU8, Ordering::Relaxed};
+use core::sync::atomic::{AtomicU16, AtomicU8, Ordering::Relaxed};
 
 /// Scratch bytes of [`partition`] over `n` points and at most `m` clusters:
-/// labels and costs (8 per point), four flags (4 per point), a flag per
-/// cluster, and [`connect`]'s search (4 per point, 4 per cluster). Keep in
-/// step with the functions named.
+/// labels and costs (8 per point, whole blocks), three stamps (6 per point,
+/// 4 per block), a flag per cluster, and [`connect`]'s search (5 per point,
+/// 4 per cluster). Keep in step with the functions named.
 pub(crate) fn partition_bytes(n: usize, m: usize) -> usize {
+    let blocks = n.div_ceil(BLOCK);
     [
-        padded_bytes::<(u32, f32)>(n),
-        4 * padded_bytes::<u8>(n),
+        padded_bytes::<(u32, f32)>(blocks.saturating_mul(BLOCK)),
+        3 * padded_bytes::<u16>(n),
+        2 * padded_bytes::<u16>(blocks),
         padded_bytes::<u8>(m),
+        padded_bytes::<u8>(n),
         padded_bytes::<u32>(m.saturating_add(1)),
         padded_bytes::<u32>(n),
     ]
     .iter()
     .fold(0usize, |a, &b| a.saturating_add(b))
 }
+
+/// Points per block: a sweep skips the blocks with no point due.
+const BLOCK: usize = 64;
+
+/// The number of the first sweep of a partition (0 and 1 stamp nothing yet).
+const FIRST: u16 = 2;
 
 /// How a partition starts.
 #[derive(Clone, Copy, PartialEq, Eq, Debug)]
@@ -91,17 +100,60 @@ pub(crate) fn partition(
     start: Start,
     hooks: &dyn Progress,
 ) -> Result<()> {
+    numbered(
+        s,
+        ctx,
+        generators,
+        seeds,
+        labels,
+        border,
+        start,
+        hooks,
+        u16::MAX - 1,
+    )
+}
+
+/// [`partition`], numbering the sweeps again from [`FIRST`] after sweep `last`
+/// (tests number them again often: the labels must not change).
+#[allow(clippy::too_many_arguments)]
+fn numbered(
+    s: &Scratch,
+    ctx: &Ctx,
+    generators: &[V3],
+    seeds: &[u32],
+    labels: &mut [u32],
+    border: &mut [u8],
+    start: Start,
+    hooks: &dyn Progress,
+    last: u16,
+) -> Result<()> {
     let n = labels.len();
     let m = generators.len();
-    let next = s.try_alloc_slice(n, UNLABELLED)?;
-    let mut offered = atomic_bytes(s.try_alloc_slice::<u8>(n, 0)?);
-    let mut changing = atomic_bytes(s.try_alloc_slice::<u8>(n, 0)?);
-    let mut due = atomic_bytes(s.try_alloc_slice::<u8>(n, 0)?);
-    let mut due_next = atomic_bytes(s.try_alloc_slice::<u8>(n, 0)?);
+    let blocks = n.div_ceil(BLOCK);
+    // Room for whole blocks, so that tasks own whole blocks.
+    let next = s.try_alloc_slice(blocks * BLOCK, UNLABELLED)?;
+    // Stamps: the sweep a point last took a new label in (its neighbours are
+    // offered it in the next one), and the sweep a point, or a block of
+    // points, is due in. A sweep compares them with its own number, so they
+    // never need clearing. Those of odd and even sweeps are apart: a sweep
+    // marks what is due in the next while it reads what is due in itself.
+    let changed_at = atomic_u16s(s.try_alloc_slice::<u16>(n, 0)?);
+    let due_at = [
+        atomic_u16s(s.try_alloc_slice::<u16>(n, 0)?),
+        atomic_u16s(s.try_alloc_slice::<u16>(n, 0)?),
+    ];
+    let block_due_at = [
+        atomic_u16s(s.try_alloc_slice::<u16>(blocks, 0)?),
+        atomic_u16s(s.try_alloc_slice::<u16>(blocks, 0)?),
+    ];
     // Clusters that lost a point: only those can have been cut in two.
     let lost = atomic_bytes(s.try_alloc_slice::<u8>(m, 0)?);
     let border = atomic_bytes(border);
     let pinned = |p: usize, l: u32| seeds.get(l as usize) == Some(&(p as u32));
+    let mark_due = |p: usize, t: u16| {
+        due_at[usize::from(t % 2)][p].store(t, Relaxed);
+        block_due_at[usize::from(t % 2)][p / BLOCK].store(t, Relaxed);
+    };
     match start {
         Start::Fresh => labels.fill(NONE),
         Start::Warm => {
@@ -128,9 +180,10 @@ pub(crate) fn partition(
         }
         border[sd as usize].store(1, Relaxed);
     }
+    let warm = start == Start::Warm;
     let read = &*labels;
-    parallel::rows(hooks, next, 1, |items, rows: &mut [Next]| {
-        for (p, nx) in items.zip(rows.iter_mut()) {
+    parallel::rows(hooks, next, BLOCK, |items, rows: &mut [Next]| {
+        for (p, nx) in (items.start * BLOCK..n).zip(rows.iter_mut()) {
             let l = read[p];
             if (l as usize) < m {
                 // Costed when first needed.
@@ -139,93 +192,138 @@ pub(crate) fn partition(
                     cost: f32::NAN,
                 };
             }
-            let warm = start == Start::Warm;
             if warm || pinned(p, l) {
-                offered[p].store(1, Relaxed);
+                changed_at[p].store(FIRST - 1, Relaxed);
             }
             if warm && border[p].load(Relaxed) != 0 {
-                due[p].store(1, Relaxed);
+                mark_due(p, FIRST);
             }
         }
     });
-    if start == Start::Fresh {
+    if !warm {
         for &sd in seeds {
             for q in ctx.nb.symmetric(sd as usize) {
-                due[q as usize].store(1, Relaxed);
+                mark_due(q as usize, FIRST);
             }
         }
     }
+    let labels = atomic_u32s(labels);
+    let mut t = FIRST;
     loop {
-        let read = &*labels;
-        let changes = parallel::rows(hooks, next, 1, |items, rows: &mut [Next]| {
+        let (due_now, block_due_now) =
+            (due_at[usize::from(t % 2)], block_due_at[usize::from(t % 2)]);
+        let changes = parallel::rows(hooks, next, BLOCK, |items, rows: &mut [Next]| {
             let mut changes = 0u32;
-            for (p, nx) in items.zip(rows.iter_mut()) {
-                if due[p].load(Relaxed) == 0 || pinned(p, read[p]) {
+            for (b, rows) in items.zip(rows.chunks_mut(BLOCK)) {
+                if block_due_now[b].load(Relaxed) != t {
                     continue;
                 }
-                if nx.cost.is_nan() {
-                    nx.cost = generators
-                        .get(nx.label as usize)
-                        .map_or(f32::INFINITY, |&g| ctx.cost(p, g));
-                }
-                let mut best = *nx;
-                // Whether a neighbour is of another cluster.
-                let mut mixed = false;
-                // The labels costed so far (most neighbours share a few).
-                let mut tried = [NONE; 4];
-                for q in ctx.nb.symmetric(p) {
-                    let q = q as usize;
-                    let c = read[q];
-                    mixed |= c != nx.label;
-                    if c == nx.label || offered[q].load(Relaxed) == 0 || tried.contains(&c) {
+                for (p, nx) in (b * BLOCK..n).zip(rows.iter_mut()) {
+                    if due_now[p].load(Relaxed) != t {
                         continue;
                     }
-                    tried.rotate_right(1);
-                    tried[0] = c;
-                    let Some(&g) = generators.get(c as usize) else {
+                    let own = labels[p].load(Relaxed);
+                    if pinned(p, own) {
                         continue;
-                    };
-                    if best.beaten_by(ctx.cost_floor(p, g), c) {
-                        let e = ctx.cost(p, g);
-                        if best.beaten_by(e, c) {
-                            best = Next { label: c, cost: e };
+                    }
+                    if nx.cost.is_nan() {
+                        nx.cost = generators
+                            .get(nx.label as usize)
+                            .map_or(f32::INFINITY, |&g| ctx.cost(p, g));
+                    }
+                    let mut best = *nx;
+                    // Whether a neighbour is of another cluster.
+                    let mut mixed = false;
+                    // The labels costed so far (most neighbours share a few).
+                    let mut tried = [NONE; 4];
+                    for q in ctx.nb.symmetric(p) {
+                        let q = q as usize;
+                        let c = labels[q].load(Relaxed);
+                        mixed |= c != own;
+                        if c == own || changed_at[q].load(Relaxed) != t - 1 || tried.contains(&c) {
+                            continue;
+                        }
+                        tried.rotate_right(1);
+                        tried[0] = c;
+                        let Some(&g) = generators.get(c as usize) else {
+                            continue;
+                        };
+                        if best.beaten_by(ctx.cost_floor(p, g), c) {
+                            let e = ctx.cost(p, g);
+                            if best.beaten_by(e, c) {
+                                best = Next { label: c, cost: e };
+                            }
                         }
                     }
-                }
-                if best.label != nx.label {
-                    if let Some(was) = lost.get(nx.label as usize) {
-                        was.store(1, Relaxed);
+                    if best.label != own {
+                        if let Some(was) = lost.get(own as usize) {
+                            was.store(1, Relaxed);
+                        }
+                        *nx = best;
+                        for q in ctx.nb.symmetric(p) {
+                            mark_due(q as usize, t + 1);
+                        }
+                        changes += 1;
+                        mixed = true;
                     }
-                    *nx = best;
-                    changing[p].store(1, Relaxed);
-                    for q in ctx.nb.symmetric(p) {
-                        due_next[q as usize].store(1, Relaxed);
-                    }
-                    changes += 1;
-                    mixed = true;
+                    border[p].store(u8::from(mixed), Relaxed);
                 }
-                border[p].store(u8::from(mixed), Relaxed);
             }
             changes
         });
-        let next = &*next;
-        parallel::rows(hooks, labels, 1, |items, rows: &mut [u32]| {
-            for (p, l) in items.zip(rows.iter_mut()) {
-                if changing[p].load(Relaxed) != 0 {
-                    *l = next[p].label;
+        // The new labels, in the blocks that were due (a point changed when
+        // its next label is not its label).
+        let read_next = &*next;
+        parallel::ranges(hooks, blocks, |items| {
+            for b in items.filter(|&b| block_due_now[b].load(Relaxed) == t) {
+                for (p, nx) in (b * BLOCK..n).zip(&read_next[b * BLOCK..(b + 1) * BLOCK]) {
+                    if nx.label != labels[p].load(Relaxed) {
+                        labels[p].store(nx.label, Relaxed);
+                        changed_at[p].store(t, Relaxed);
+                    }
                 }
-                offered[p].store(0, Relaxed);
-                due[p].store(0, Relaxed);
             }
         });
-        core::mem::swap(&mut offered, &mut changing);
-        core::mem::swap(&mut due, &mut due_next);
         if changes.iter().all(|&c| c == 0) {
             break;
         }
+        if t >= last {
+            // Out of numbers (a pass takes tens of sweeps): number again from
+            // FIRST, carrying over the last sweep's changes and what is due
+            // next.
+            let renumber = |a: &AtomicU16, from: u16, to: u16| {
+                a.store(if a.load(Relaxed) == from { to } else { 0 }, Relaxed);
+            };
+            changed_at.iter().for_each(|a| renumber(a, t, FIRST - 1));
+            // Sweep t + 1 goes on as FIRST: its marks move over (to the
+            // other parity when the two differ).
+            let (from, to) = (usize::from((t + 1) % 2), usize::from(FIRST % 2));
+            let carry = |marks: &[&[AtomicU16]; 2], i: usize| {
+                let due = marks[from][i].load(Relaxed) == t + 1;
+                marks[from][i].store(0, Relaxed);
+                marks[1 - from][i].store(0, Relaxed);
+                marks[to][i].store(if due { FIRST } else { 0 }, Relaxed);
+            };
+            (0..n).for_each(|p| carry(&due_at, p));
+            (0..blocks).for_each(|b| carry(&block_due_at, b));
+            t = FIRST;
+        } else {
+            t += 1;
+        }
     }
+    let labels = labels_of(labels);
+    let reached = atomic_bytes(s.try_alloc_slice::<u8>(n, 0)?);
     connect(
-        s, ctx, generators, seeds, labels, next, due, lost, border, hooks,
+        s,
+        ctx,
+        generators,
+        seeds,
+        labels,
+        &mut next[..n],
+        reached,
+        lost,
+        border,
+        hooks,
     )
 }
 
@@ -466,6 +564,27 @@ mod tests {
             (fresh, (labels, border))
         };
         let (fresh, warm) = run(&Silent);
+        // Numbered again every few sweeps (odd and even wraps): the same.
+        for last in [5u16, 6] {
+            let mut labels = vec![NONE; n];
+            let mut border = vec![1u8; n];
+            arena
+                .scratch(|s| {
+                    numbered(
+                        s,
+                        &ctx,
+                        &generators,
+                        &seeds,
+                        &mut labels,
+                        &mut border,
+                        Start::Fresh,
+                        &Silent,
+                        last,
+                    )
+                })
+                .unwrap();
+            assert_eq!(labels, fresh.0, "numbered again after sweep {last}");
+        }
         assert_eq!(run(&Backwards), (fresh.clone(), warm.clone()));
         assert_eq!(run(&Threads), (fresh.clone(), warm.clone()));
         assert_ne!(fresh, warm, "moving every generator changed nothing");
