@@ -17,10 +17,13 @@ use std::fmt;
 use std::io;
 use std::path::{Path, PathBuf};
 
+pub mod las;
+pub mod lzf;
 pub mod obj;
 pub mod off;
 pub mod pcd;
 pub mod ply;
+pub mod stl;
 pub mod write;
 pub mod xyz;
 
@@ -29,13 +32,20 @@ pub use write::{publish, write_atomic, write_mesh, write_points_ply, MeshFormat,
 /// A point cloud as read from a file, in the file's own units (`f64`).
 ///
 /// Invariant: `positions` is non-empty and every coordinate is finite; when present,
-/// `normals` has exactly one entry per position (entries may be NaN or zero).
+/// `normals` and `colors` have exactly one entry per position (normals may be NaN or
+/// zero).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Cloud {
     /// Point positions, all finite.
     pub positions: Vec<[f64; 3]>,
     /// Per-point normals exactly as stored in the file, if it has them.
     pub normals: Option<Vec<[f64; 3]>>,
+    /// Per-point colours (8 bits a channel), if the file has them.
+    pub colors: Option<Vec<[u8; 3]>>,
+    /// Points the file holds but the cloud leaves out because a coordinate is NaN
+    /// or infinite: formats whose tools mark missing points that way (PCD, LAS)
+    /// skip them and count them here; the others reject them.
+    pub invalid: usize,
 }
 
 /// A triangle mesh as read from a file: vertex positions (finite) and triangles whose
@@ -43,35 +53,96 @@ pub struct Cloud {
 pub type Mesh = (Vec<[f64; 3]>, Vec<[u32; 3]>);
 
 /// Extensions [`read_cloud`] understands (lower case, compared case-insensitively).
-pub const CLOUD_EXTENSIONS: &str = ".ply, .xyz, .xyzn, .txt, .pts, .pcd";
+pub const CLOUD_EXTENSIONS: &str =
+    ".ply, .xyz, .xyzn, .txt, .pts, .csv, .pcd, .las, .laz, .obj, .off, .stl";
 /// Extensions [`read_mesh`] understands.
-pub const MESH_EXTENSIONS: &str = ".ply, .obj, .off";
+pub const MESH_EXTENSIONS: &str = ".ply, .obj, .off, .stl";
 
-/// Reads a point cloud, choosing the format from the extension (case-insensitive):
-/// `.ply`; `.xyz`, `.xyzn`, `.txt`, `.pts` (XYZ text); `.pcd`.
-///
-/// Cost: one read of the file plus one pass over its bytes.
-pub fn read_cloud(path: &Path) -> Result<Cloud, ReadError> {
-    let ext = extension(path);
-    let parse: fn(&[u8]) -> Result<Cloud, ReadErrorKind> = match ext.as_deref() {
-        Some("ply") => ply::parse_cloud,
-        Some("xyz" | "xyzn" | "txt" | "pts") => xyz::parse_cloud,
-        Some("pcd") => pcd::parse_cloud,
-        _ => return Err(unknown_extension(path, ext, CLOUD_EXTENSIONS)),
-    };
-    let data = load(path)?;
-    parse(&data).map_err(|kind| ReadError::new(path, kind))
+/// How to read a cloud, beyond what the file says.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct ReadOptions {
+    /// The columns of a text cloud (`--columns`), over its header or column count;
+    /// for another format an error.
+    pub columns: Option<xyz::Columns>,
 }
 
-/// Reads a triangle mesh (`.ply` with a `face` element, `.obj`, `.off`), triangulating
-/// polygons as fans. Same robustness rules as [`read_cloud`]; a face index out of range
-/// is an error naming the face.
+/// A cloud format, from the extension.
+#[derive(Clone, Copy)]
+enum CloudFormat {
+    Ply,
+    Text,
+    Pcd,
+    Las,
+    /// A mesh, whose vertices are the points.
+    Mesh(fn(&[u8]) -> Result<Mesh, ReadErrorKind>),
+}
+
+/// Reads a point cloud with the default [`ReadOptions`], see [`read_cloud_with`].
+pub fn read_cloud(path: &Path) -> Result<Cloud, ReadError> {
+    read_cloud_with(path, &ReadOptions::default())
+}
+
+/// Reads a point cloud, choosing the format from the extension (case-insensitive):
+/// `.ply`; `.xyz`, `.xyzn`, `.txt`, `.pts`, `.csv` (text, [`xyz`]); `.pcd`;
+/// `.las`, `.laz`; and the meshes `.obj`, `.off`, `.stl`, whose vertices are the
+/// points (a PLY mesh is read that way too).
+///
+/// Cost: one read of the file plus one pass over its bytes.
+pub fn read_cloud_with(path: &Path, options: &ReadOptions) -> Result<Cloud, ReadError> {
+    let ext = extension(path);
+    let format = match ext.as_deref() {
+        Some("ply") => CloudFormat::Ply,
+        Some("xyz" | "xyzn" | "txt" | "pts" | "csv") => CloudFormat::Text,
+        Some("pcd") => CloudFormat::Pcd,
+        Some("las" | "laz") => CloudFormat::Las,
+        Some("obj") => CloudFormat::Mesh(obj::parse_mesh),
+        Some("off") => CloudFormat::Mesh(off::parse_mesh),
+        Some("stl") => CloudFormat::Mesh(stl::parse_mesh),
+        _ => return Err(unknown_extension(path, ext, CLOUD_EXTENSIONS)),
+    };
+    if let (Some(columns), false) = (&options.columns, matches!(format, CloudFormat::Text)) {
+        return Err(ReadError::new(
+            path,
+            ReadErrorKind::unsupported(
+                At::File,
+                format!(
+                    "--columns {columns} for a .{} file (it names the columns of text \
+                     clouds: .xyz, .xyzn, .txt, .pts, .csv)",
+                    ext.unwrap_or_default()
+                ),
+            ),
+        ));
+    }
+    let data = load(path)?;
+    let cloud = match format {
+        CloudFormat::Ply => ply::parse_cloud(&data),
+        CloudFormat::Text => xyz::parse_cloud(&data, options.columns.as_ref()),
+        CloudFormat::Pcd => pcd::parse_cloud(&data),
+        CloudFormat::Las => las::parse_cloud(data),
+        CloudFormat::Mesh(parse) => parse(&data).map(|(positions, _)| Cloud {
+            positions,
+            ..Cloud::default()
+        }),
+    };
+    match cloud {
+        Ok(c) if c.positions.is_empty() => {
+            Err(ReadError::new(path, ReadErrorKind::file("no points")))
+        }
+        Ok(c) => Ok(c),
+        Err(kind) => Err(ReadError::new(path, kind)),
+    }
+}
+
+/// Reads a triangle mesh (`.ply` with a `face` element, `.obj`, `.off`, `.stl`),
+/// triangulating polygons as fans. Same robustness rules as [`read_cloud`]; a face
+/// index out of range is an error naming the face.
 pub fn read_mesh(path: &Path) -> Result<Mesh, ReadError> {
     let ext = extension(path);
     let parse: fn(&[u8]) -> Result<Mesh, ReadErrorKind> = match ext.as_deref() {
         Some("ply") => ply::parse_mesh,
         Some("obj") => obj::parse_mesh,
         Some("off") => off::parse_mesh,
+        Some("stl") => stl::parse_mesh,
         _ => return Err(unknown_extension(path, ext, MESH_EXTENSIONS)),
     };
     let data = load(path)?;
