@@ -10,14 +10,18 @@
 //! points (uncompressed) must fit in the bytes after the header, an extended record
 //! and a LAZ chunk table must lie inside the file. Points are then decoded a batch
 //! at a time, so a count that lies about a LAZ body fails where the data ends
-//! without reserving more than a batch. A point with a non-finite coordinate (only
-//! a huge scale can make one) is skipped and counted.
+//! without reserving more than a batch; a damaged LAZ stream on which the decoder
+//! panics is an error too ([`quiet_catch`]). A point with a non-finite coordinate
+//! (only a huge scale can make one) is skipped and counted.
 //!
 //! Cost: one pass over the points; memory is the file, the output and one batch.
 
 use super::{At, Cloud, ReadErrorKind};
 use ::las::{raw, PointDataBuilder, Reader};
+use std::cell::Cell;
 use std::io::Cursor;
+use std::panic::AssertUnwindSafe;
+use std::sync::Once;
 
 type Result<T> = core::result::Result<T, ReadErrorKind>;
 
@@ -148,6 +152,17 @@ fn check_header(data: &[u8]) -> Result<()> {
 /// Parses a LAS or LAZ cloud (the file's bytes).
 pub fn parse_cloud(data: Vec<u8>) -> Result<Cloud> {
     check_header(&data)?;
+    let mut done = 0u64;
+    match quiet_catch(|| decode(data, &mut done)) {
+        Ok(cloud) => cloud,
+        Err(_) => Err(ReadErrorKind::file(format!(
+            "LAS: point {done}: the compressed data is damaged (the LAZ decoder gave up)"
+        ))),
+    }
+}
+
+/// Decodes every point; `done` counts those decoded, for a message.
+fn decode(data: Vec<u8>, done: &mut u64) -> Result<Cloud> {
     let file_len = data.len();
     let mut reader = Reader::new(Cursor::new(data)).map_err(las_error)?;
     let count = reader.header().number_of_points();
@@ -163,10 +178,9 @@ pub fn parse_cloud(data: Vec<u8>) -> Result<Cloud> {
     let has_color = reader.header().point_format().has_color;
     let mut wide: Vec<[u16; 3]> = Vec::with_capacity(if has_color { cap } else { 0 });
     let mut batch = PointDataBuilder::new().for_header(reader.header()).build();
-    let mut done = 0u64;
-    while done < count {
+    while *done < count {
         let n = reader
-            .fill_points(BATCH.min(count - done), &mut batch)
+            .fill_points(BATCH.min(count - *done), &mut batch)
             .map_err(|e| {
                 ReadErrorKind::file(format!(
                     "LAS: point {done} of {count}: {e} (the header's count is larger than \
@@ -192,7 +206,7 @@ pub fn parse_cloud(data: Vec<u8>) -> Result<Cloud> {
                 wide.push([r, g, b]);
             }
         }
-        done += n;
+        *done += n;
     }
     if cloud.positions.is_empty() {
         return Err(ReadErrorKind::file(format!(
@@ -208,6 +222,32 @@ pub fn parse_cloud(data: Vec<u8>) -> Result<Cloud> {
         cloud.colors = Some(wide.iter().map(|c| c.map(|v| (v >> shift) as u8)).collect());
     }
     Ok(cloud)
+}
+
+thread_local! {
+    /// Set while [`quiet_catch`] runs its closure on this thread.
+    static QUIET: Cell<bool> = const { Cell::new(false) };
+}
+
+/// Runs `f`, turning a panic into `Err` without a message on stderr. The `laz`
+/// decoder asserts on some damaged streams (laz 0.13: `sym < (1 << 16)` in its
+/// arithmetic decoder) instead of returning an error; this keeps a damaged file
+/// a read error. Only this thread's panics inside `f` are silenced: the panic
+/// hook installed here hands every other panic to the previous hook.
+fn quiet_catch<T>(f: impl FnOnce() -> T) -> std::thread::Result<T> {
+    static HOOK: Once = Once::new();
+    HOOK.call_once(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if !QUIET.with(Cell::get) {
+                previous(info);
+            }
+        }));
+    });
+    QUIET.with(|q| q.set(true));
+    let r = std::panic::catch_unwind(AssertUnwindSafe(f));
+    QUIET.with(|q| q.set(false));
+    r
 }
 
 #[cfg(test)]
