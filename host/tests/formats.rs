@@ -5,10 +5,10 @@
 //! flips) failing with a message that names the file, never a panic.
 //!
 //! The last test converts a shared cloud (`../shared/data/clouds/bunny.ply`) to a
-//! georeferenced LAZ, a coloured XYZ and CSV, an organised PCD with NaN pixels and
-//! face-less OBJ and OFF files, and checks each gives the PLY's accuracy (all but
-//! the LAZ, whose points are quantised, the PLY's very mesh): `#[ignore]`d (seven
-//! reconstructions of 35k points).
+//! georeferenced LAZ, a coloured XYZ and CSV, an organised PCD with NaN pixels, an
+//! E57 of two scans and face-less OBJ and OFF files, and checks each gives the PLY's
+//! accuracy (all but the LAZ, whose points are quantised, the PLY's very mesh):
+//! `#[ignore]`d (eight reconstructions of 35k points).
 
 mod common;
 use common::{bin, field, run_with_report};
@@ -430,6 +430,114 @@ fn mutated_las_laz_and_compressed_pcd_never_panic() {
     mutations_never_panic(&d, "a.stl", stl_ascii(&v, &t[..20]).as_bytes(), 60);
 }
 
+// ---------------------------------------------------------------- E57
+
+/// An E57 file of two scans of `points` (halves), with their colours, every
+/// `gap`-th point marked invalid (and its coordinates NaN), the second scan
+/// posed by a translation of `shift`. Returns the invalid count.
+fn e57_file(path: &Path, points: &[[f64; 3]], gap: usize, shift: [f64; 3]) -> usize {
+    use e57::{Quaternion, Record, RecordValue, Transform, Translation};
+    let mut w = e57::E57Writer::from_file(path, "vsaqem-test").unwrap();
+    let mut invalid = 0;
+    let half = points.len() / 2;
+    for (scan, part) in [&points[..half], &points[half..]].into_iter().enumerate() {
+        let prototype = vec![
+            Record::CARTESIAN_X_F64,
+            Record::CARTESIAN_Y_F64,
+            Record::CARTESIAN_Z_F64,
+            Record::CARTESIAN_INVALID_STATE,
+            Record::COLOR_RED_U8,
+            Record::COLOR_GREEN_U8,
+            Record::COLOR_BLUE_U8,
+        ];
+        let mut pc = w
+            .add_pointcloud(&format!("scan-{scan}"), prototype)
+            .unwrap();
+        if scan == 1 {
+            let [x, y, z] = shift;
+            pc.set_transform(Some(Transform {
+                rotation: Quaternion {
+                    w: 1.0,
+                    x: 0.0,
+                    y: 0.0,
+                    z: 0.0,
+                },
+                translation: Translation { x, y, z },
+            }));
+        }
+        for (i, &p) in part.iter().enumerate() {
+            let bad = i % gap == gap - 1;
+            invalid += usize::from(bad);
+            let p = if bad { [f64::NAN; 3] } else { p };
+            let mut values: Vec<RecordValue> = p.iter().map(|&v| RecordValue::Double(v)).collect();
+            values.push(RecordValue::Integer(if bad { 2 } else { 0 }));
+            let [r, g, b] = colour_of(p);
+            values.extend([r, g, b].map(|c| RecordValue::Integer(i64::from(c))));
+            pc.add_point(values).unwrap();
+        }
+        pc.finalize().unwrap();
+    }
+    w.finalize().unwrap();
+    invalid
+}
+
+#[test]
+fn an_e57_of_two_posed_scans_skips_its_invalid_points() {
+    let d = dir("e57");
+    let pts = sphere();
+    let shift = [1000.0, -20.0, 3.5];
+    let path = d.join("scans.e57");
+    let invalid = e57_file(&path, &pts, 13, shift);
+    let c = read_cloud(&path).unwrap();
+    assert_eq!(c.invalid, invalid);
+    assert_eq!(c.positions.len() + invalid, pts.len());
+    // The first valid point of each scan, the second moved by its pose.
+    assert_eq!(c.positions[0], pts[0]);
+    let half = pts.len() / 2;
+    let second = (0..half).filter(|i| i % 13 != 12).count();
+    let want = pts[half];
+    for a in 0..3 {
+        assert!((c.positions[second][a] - (want[a] + shift[a])).abs() < 1e-9);
+    }
+    assert_eq!(c.colors.as_ref().unwrap()[0], colour_of(pts[0]));
+    // Without invalid points and poses, reconstructed.
+    let one = d.join("one.e57");
+    e57_file(&one, &pts, usize::MAX, [0.0; 3]);
+    let r = reconstruct(&one, &["--clusters", "150"], &d.join("mesh.ply"));
+    assert_eq!(field(&r, "points_read"), pts.len() as f64);
+    assert_eq!(field(&r, "invalid_skipped"), 0.0);
+}
+
+#[test]
+fn broken_e57_files_are_errors_naming_the_file() {
+    let d = dir("e57_bad");
+    let path = d.join("good.e57");
+    e57_file(&path, &sphere()[..400], 7, [0.0; 3]);
+    let good = fs::read(&path).unwrap();
+    read_err(&put(&d, "text.e57", "x y z\n"), &["not an E57 file"]);
+    read_err(
+        &put(&d, "head.e57", &good[..30]),
+        &["ends inside the E57 header"],
+    );
+    let mut b = good.clone();
+    b[32..40].copy_from_slice(&(40_000_000u64).to_le_bytes());
+    read_err(
+        &put(&d, "xml.e57", &b),
+        &["bytes of XML at byte", "past the end"],
+    );
+    read_err(
+        &put(&d, "cut.e57", &good[..good.len() - 100]),
+        &["E57: ", "not a multiple of the page size"],
+    );
+    let mut b = good.clone();
+    b[2000..2100].fill(0x5a);
+    read_err(
+        &put(&d, "crc.e57", &b),
+        &["E57: scan 0, point 0", "invalid checksum"],
+    );
+    mutations_never_panic(&d, "m.e57", &good, 150);
+}
+
 // ---------------------------------------------------------------- PCD
 
 #[test]
@@ -695,7 +803,7 @@ fn shared_bunny() -> Option<PathBuf> {
 }
 
 #[test]
-#[ignore = "seven reconstructions of a 35k-point shared cloud"]
+#[ignore = "eight reconstructions of a 35k-point shared cloud"]
 fn a_shared_cloud_converted_to_laz_xyz_and_organised_pcd_keeps_its_accuracy() {
     let Some(ply) = shared_bunny() else { return };
     let d = dir("shared");
@@ -725,6 +833,8 @@ fn a_shared_cloud_converted_to_laz_xyz_and_organised_pcd_keeps_its_accuracy() {
     let csv = put(&d, "bunny.csv", csv);
     let (pcd, nan) = organised_pcd(&pts, 640, 11);
     let pcd = put(&d, "bunny.pcd", pcd);
+    let e57 = d.join("bunny.e57");
+    e57_file(&e57, &pts, usize::MAX, [0.0; 3]);
     // Meshes without faces: their vertices are the points.
     let (obj, off) = (d.join("bunny.obj"), d.join("bunny.off"));
     write_atomic(&obj, |w| write_mesh(w, MeshFormat::Obj, &pts, &[])).unwrap();
@@ -740,6 +850,7 @@ fn a_shared_cloud_converted_to_laz_xyz_and_organised_pcd_keeps_its_accuracy() {
         (&xyz, true),
         (&csv, true),
         (&pcd, true),
+        (&e57, true),
         (&obj, true),
         (&off, true),
         (&laz, false),

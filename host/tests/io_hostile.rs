@@ -816,10 +816,10 @@ fn obj_and_off_hostile_inputs() {
 fn unknown_extension_and_missing_file() {
     let d = dir("ext");
     cloud_err(
-        &put(&d, "scan.e57", "x"),
+        &put(&d, "scan.fls", "x"),
         &[
-            "unknown extension '.e57'",
-            ".ply, .xyz, .xyzn, .txt, .pts, .csv, .pcd, .las, .laz, .obj, .off, .stl",
+            "unknown extension '.fls'",
+            ".ply, .xyz, .xyzn, .txt, .pts, .csv, .pcd, .las, .laz, .e57, .obj, .off, .stl",
         ],
     );
     cloud_err(&put(&d, "noext", "1 2 3\n"), &["no file extension"]);

@@ -11,17 +11,14 @@
 //! and a LAZ chunk table must lie inside the file. Points are then decoded a batch
 //! at a time, so a count that lies about a LAZ body fails where the data ends
 //! without reserving more than a batch; a damaged LAZ stream on which the decoder
-//! panics is an error too ([`quiet_catch`]). A point with a non-finite coordinate
+//! panics is an error too ([`super::quiet_catch`]). A point with a non-finite coordinate
 //! (only a huge scale can make one) is skipped and counted.
 //!
 //! Cost: one pass over the points; memory is the file, the output and one batch.
 
-use super::{At, Cloud, ReadErrorKind};
+use super::{quiet_catch, At, Cloud, ReadErrorKind};
 use ::las::{raw, PointDataBuilder, Reader};
-use std::cell::Cell;
 use std::io::Cursor;
-use std::panic::AssertUnwindSafe;
-use std::sync::Once;
 
 type Result<T> = core::result::Result<T, ReadErrorKind>;
 
@@ -222,32 +219,6 @@ fn decode(data: Vec<u8>, done: &mut u64) -> Result<Cloud> {
         cloud.colors = Some(wide.iter().map(|c| c.map(|v| (v >> shift) as u8)).collect());
     }
     Ok(cloud)
-}
-
-thread_local! {
-    /// Set while [`quiet_catch`] runs its closure on this thread.
-    static QUIET: Cell<bool> = const { Cell::new(false) };
-}
-
-/// Runs `f`, turning a panic into `Err` without a message on stderr. The `laz`
-/// decoder asserts on some damaged streams (laz 0.13: `sym < (1 << 16)` in its
-/// arithmetic decoder) instead of returning an error; this keeps a damaged file
-/// a read error. Only this thread's panics inside `f` are silenced: the panic
-/// hook installed here hands every other panic to the previous hook.
-fn quiet_catch<T>(f: impl FnOnce() -> T) -> std::thread::Result<T> {
-    static HOOK: Once = Once::new();
-    HOOK.call_once(|| {
-        let previous = std::panic::take_hook();
-        std::panic::set_hook(Box::new(move |info| {
-            if !QUIET.with(Cell::get) {
-                previous(info);
-            }
-        }));
-    });
-    QUIET.with(|q| q.set(true));
-    let r = std::panic::catch_unwind(AssertUnwindSafe(f));
-    QUIET.with(|q| q.set(false));
-    r
 }
 
 #[cfg(test)]

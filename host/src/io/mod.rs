@@ -1,22 +1,32 @@
-//! File formats: point clouds in (PLY, XYZ, PCD), meshes and labelled points out
-//! (PLY, OBJ, OFF), and meshes back in (PLY, OBJ, OFF) for evaluation.
+//! File formats: point clouds in (PLY, text, PCD, LAS/LAZ, E57, and the vertices of
+//! OBJ, OFF and STL meshes), meshes and labelled points out (PLY, OBJ, OFF), and
+//! meshes back in (PLY, OBJ, OFF, STL) for evaluation.
 //!
 //! Every reader loads the whole file with `std::fs::read` (inputs are tens of MB at
 //! most) and parses the byte slice in one pass: O(file size) time, memory proportional
 //! to the output. Readers are written for hostile input:
 //! - any malformed file is a [`ReadError`] naming the path, the place (1-based line for
-//!   text, element index or byte offset for binary) and the offending value; never a panic;
+//!   text, element index or byte offset for binary) and the offending value; never a
+//!   panic (the decoders of other crates run under [`quiet_catch`]);
 //! - nothing is reserved from a header count until the bytes that count promises are
-//!   known to exist, so `element vertex 4000000000` over a 100-byte body fails at once;
-//! - positions must be finite (the error names the vertex); normals pass through as read,
-//!   NaN or zero included, because core decides what a bad normal means.
+//!   known to exist, so `element vertex 4000000000` over a 100-byte body fails at once,
+//!   and every size computed from a header is checked arithmetic;
+//! - positions must be finite: PCD, LAS/LAZ and E57, whose tools mark a missing
+//!   measure with a NaN or an invalid flag, skip such points and count them
+//!   ([`Cloud::invalid`]); the other formats reject them (the error names the vertex);
+//! - normals pass through as read, NaN or zero included, because core decides what a
+//!   bad normal means.
 //!
 //! Writers go through [`write_atomic`]: a reader of the target never sees half a file.
 
+use std::cell::Cell;
 use std::fmt;
 use std::io;
+use std::panic::AssertUnwindSafe;
 use std::path::{Path, PathBuf};
+use std::sync::Once;
 
+pub mod e57;
 pub mod las;
 pub mod lzf;
 pub mod obj;
@@ -54,7 +64,7 @@ pub type Mesh = (Vec<[f64; 3]>, Vec<[u32; 3]>);
 
 /// Extensions [`read_cloud`] understands (lower case, compared case-insensitively).
 pub const CLOUD_EXTENSIONS: &str =
-    ".ply, .xyz, .xyzn, .txt, .pts, .csv, .pcd, .las, .laz, .obj, .off, .stl";
+    ".ply, .xyz, .xyzn, .txt, .pts, .csv, .pcd, .las, .laz, .e57, .obj, .off, .stl";
 /// Extensions [`read_mesh`] understands.
 pub const MESH_EXTENSIONS: &str = ".ply, .obj, .off, .stl";
 
@@ -73,6 +83,7 @@ enum CloudFormat {
     Text,
     Pcd,
     Las,
+    E57,
     /// A mesh, whose vertices are the points.
     Mesh(fn(&[u8]) -> Result<Mesh, ReadErrorKind>),
 }
@@ -84,7 +95,7 @@ pub fn read_cloud(path: &Path) -> Result<Cloud, ReadError> {
 
 /// Reads a point cloud, choosing the format from the extension (case-insensitive):
 /// `.ply`; `.xyz`, `.xyzn`, `.txt`, `.pts`, `.csv` (text, [`xyz`]); `.pcd`;
-/// `.las`, `.laz`; and the meshes `.obj`, `.off`, `.stl`, whose vertices are the
+/// `.las`, `.laz`; `.e57`; and the meshes `.obj`, `.off`, `.stl`, whose vertices are the
 /// points (a PLY mesh is read that way too).
 ///
 /// Cost: one read of the file plus one pass over its bytes.
@@ -95,6 +106,7 @@ pub fn read_cloud_with(path: &Path, options: &ReadOptions) -> Result<Cloud, Read
         Some("xyz" | "xyzn" | "txt" | "pts" | "csv") => CloudFormat::Text,
         Some("pcd") => CloudFormat::Pcd,
         Some("las" | "laz") => CloudFormat::Las,
+        Some("e57") => CloudFormat::E57,
         Some("obj") => CloudFormat::Mesh(obj::parse_mesh),
         Some("off") => CloudFormat::Mesh(off::parse_mesh),
         Some("stl") => CloudFormat::Mesh(stl::parse_mesh),
@@ -119,6 +131,7 @@ pub fn read_cloud_with(path: &Path, options: &ReadOptions) -> Result<Cloud, Read
         CloudFormat::Text => xyz::parse_cloud(&data, options.columns.as_ref()),
         CloudFormat::Pcd => pcd::parse_cloud(&data),
         CloudFormat::Las => las::parse_cloud(data),
+        CloudFormat::E57 => e57::parse_cloud(data),
         CloudFormat::Mesh(parse) => parse(&data).map(|(positions, _)| Cloud {
             positions,
             ..Cloud::default()
@@ -339,6 +352,33 @@ pub(crate) fn check_finite(
         }
     }
     Ok(())
+}
+
+thread_local! {
+    /// Set while [`quiet_catch`] runs its closure on this thread.
+    static QUIET: Cell<bool> = const { Cell::new(false) };
+}
+
+/// Runs `f`, turning a panic into `Err` without a message on stderr, for the
+/// decoders of other crates: the `laz` decoder asserts on some damaged streams
+/// (laz 0.13: `sym < (1 << 16)` in its arithmetic decoder) instead of returning an
+/// error; this keeps a damaged file a read error. Only this thread's panics
+/// inside `f` are silenced: the panic hook installed here hands every other panic
+/// to the previous hook.
+pub(crate) fn quiet_catch<T>(f: impl FnOnce() -> T) -> std::thread::Result<T> {
+    static HOOK: Once = Once::new();
+    HOOK.call_once(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if !QUIET.with(Cell::get) {
+                previous(info);
+            }
+        }));
+    });
+    QUIET.with(|q| q.set(true));
+    let r = std::panic::catch_unwind(AssertUnwindSafe(f));
+    QUIET.with(|q| q.set(false));
+    r
 }
 
 /// A token from a file, quoted and cut to a readable length for an error message.
