@@ -15,8 +15,8 @@ use vsaqem_core::Params;
 #[derive(Args, Debug, Clone)]
 pub struct InputArgs {
     /// Point cloud to read: .ply, .xyz/.xyzn/.txt/.pts/.csv (text), .pcd, .las/.laz,
-    /// or a mesh (.obj, .off, .stl; a PLY mesh too) whose vertices are the points.
-    /// Without it, a built-in generated sample is used.
+    /// .e57, or a mesh (.obj, .off, .stl; a PLY mesh too) whose vertices are the
+    /// points. Without it, a built-in generated sample is used.
     pub input: Option<PathBuf>,
     /// Normals in the file: `use` them where finite and non-zero (core estimates
     /// the others from the neighbours), or `ignore` them all and estimate every

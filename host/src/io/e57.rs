@@ -7,7 +7,7 @@
 //! only) or with a non-finite coordinate is skipped and counted, as the E57 tools
 //! do. The header's XML section must lie inside the file before the crate reads
 //! it (the crate would reserve up to 50 MB for a lying length); decoding runs
-//! under [`super::quiet_catch`], so a damaged file stays a read error.
+//! under `quiet_catch` (in `io`), so a damaged file stays a read error.
 //!
 //! Cost: one pass over the points; memory is the file and the output.
 

@@ -11,8 +11,8 @@
 //! and a LAZ chunk table must lie inside the file. Points are then decoded a batch
 //! at a time, so a count that lies about a LAZ body fails where the data ends
 //! without reserving more than a batch; a damaged LAZ stream on which the decoder
-//! panics is an error too ([`super::quiet_catch`]). A point with a non-finite coordinate
-//! (only a huge scale can make one) is skipped and counted.
+//! panics is an error too (`quiet_catch` in `io`). A point with a non-finite
+//! coordinate (only a huge scale can make one) is skipped and counted.
 //!
 //! Cost: one pass over the points; memory is the file, the output and one batch.
 

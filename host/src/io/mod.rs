@@ -7,7 +7,7 @@
 //! to the output. Readers are written for hostile input:
 //! - any malformed file is a [`ReadError`] naming the path, the place (1-based line for
 //!   text, element index or byte offset for binary) and the offending value; never a
-//!   panic (the decoders of other crates run under [`quiet_catch`]);
+//!   panic (the decoders of other crates run under `quiet_catch`);
 //! - nothing is reserved from a header count until the bytes that count promises are
 //!   known to exist, so `element vertex 4000000000` over a 100-byte body fails at once,
 //!   and every size computed from a header is checked arithmetic;
@@ -355,7 +355,7 @@ pub(crate) fn check_finite(
 }
 
 thread_local! {
-    /// Set while [`quiet_catch`] runs its closure on this thread.
+    /// Set while `quiet_catch` runs its closure on this thread.
     static QUIET: Cell<bool> = const { Cell::new(false) };
 }
 
