@@ -1,6 +1,7 @@
 //! Text clouds (`.xyz`, `.xyzn`, `.txt`, `.pts`, `.csv`): one point per line, values
-//! separated by whitespace, commas or semicolons; blank lines and lines starting with
-//! `#` or `//` are skipped; every data line has the column count of the first one.
+//! separated by whitespace and commas, or whitespace and semicolons (a comma is then
+//! a decimal comma: `1,5;2;3`); blank lines and lines starting with `#` or `//` are
+//! skipped; every data line has the column count of the first one.
 //!
 //! What the columns hold, in this order of precedence:
 //! 1. `--columns` ([`Columns`]), e.g. `x,y,z,nx,ny,nz` or `x,y,z,_,r,g,b`;
@@ -23,7 +24,7 @@
 //! Cost: one pass over the bytes; memory is the output plus, for more than three
 //! columns, the other columns' values until the layout is known (8 bytes a value).
 
-use super::{check_finite, parse_f64, Cloud, Lines, ReadErrorKind, Shown};
+use super::{check_finite, Cloud, Lines, ReadErrorKind, Shown};
 use std::fmt;
 use std::str::FromStr;
 
@@ -197,10 +198,22 @@ impl fmt::Display for Columns {
     }
 }
 
-/// The tokens of a line.
+/// The tokens of a line: separated by whitespace and commas, or, in a line with a
+/// semicolon, by whitespace and semicolons (a comma is then a decimal comma, see
+/// [`number`]).
 fn tokens(line: &str) -> impl Iterator<Item = &str> {
-    line.split(|c: char| c.is_ascii_whitespace() || c == ',' || c == ';')
+    let semicolons = line.contains(';');
+    line.split(move |c: char| c.is_ascii_whitespace() || c == if semicolons { ';' } else { ',' })
         .filter(|t| !t.is_empty())
+}
+
+/// A token as a number; a comma in it is a decimal comma (`1,5;2;3`).
+fn number(tok: &str) -> Option<f64> {
+    tok.parse::<f64>().ok().or_else(|| {
+        tok.contains(',')
+            .then(|| tok.replace(',', ".").parse::<f64>().ok())
+            .flatten()
+    })
 }
 
 /// A comment line's text, without its `#` or `//`.
@@ -300,7 +313,7 @@ pub fn parse_cloud(data: &[u8], columns: Option<&Columns>) -> Result<Cloud> {
         row.extend(tokens(line));
         if first.is_none() {
             // Words only: a header; numbers and words: a data line with a bad value.
-            let words = row.iter().all(|t| t.parse::<f64>().is_err());
+            let words = row.iter().all(|t| number(t).is_none());
             if words && !plain_header {
                 // A header line naming the columns.
                 plain_header = true;
@@ -376,7 +389,12 @@ pub fn parse_cloud(data: &[u8], columns: Option<&Columns>) -> Result<Cloud> {
         // Every value is parsed, in order: the first bad one is named.
         let mut p = [0.0; 3];
         for (c, tok) in row.iter().enumerate() {
-            let v = parse_f64(tok, n, format_args!("column {}", c + 1))?;
+            let v = number(tok).ok_or_else(|| {
+                ReadErrorKind::line(
+                    n,
+                    format!("column {}: {} is not a number", c + 1, Shown(tok)),
+                )
+            })?;
             if let Some(k) = xyz.iter().position(|&j| j == c) {
                 p[k] = v;
             } else {
@@ -538,6 +556,13 @@ mod tests {
         assert_eq!(c.colors, Some(vec![[255, 0, 0], [10, 20, 30]]));
         let c = read("1;2;3;0.5;0;1\n4;5;6;0;0;0\n");
         assert_eq!(c.colors, Some(vec![[128, 0, 255], [0, 0, 0]]));
+        // Semicolons and decimal commas, as some spreadsheets write them.
+        let c = read("X;Y;Z\n1,5;2;-3,25\n");
+        assert_eq!(c.positions, vec![[1.5, 2.0, -3.25]]);
+        assert_eq!(
+            err("1,5;2;3,0,1\n"),
+            "line 1: column 3: \"3,0,1\" is not a number"
+        );
     }
 
     #[test]
