@@ -166,7 +166,8 @@ fn decode(data: Vec<u8>, done: &mut u64) -> Result<Cloud> {
     if count == 0 {
         return Err(ReadErrorKind::file("the header declares 0 points"));
     }
-    // At most a point per 2 bytes of file: a LAZ point takes at least that.
+    // The count is the header's: reserve at most a point per 2 bytes of the file
+    // (the vectors grow past that for a LAZ file that packs points tighter).
     let cap = usize::try_from(count).map_or(file_len / 2, |c| c.min(file_len / 2));
     let mut cloud = Cloud {
         positions: Vec::with_capacity(cap),
