@@ -316,6 +316,38 @@ mod tests {
     }
 
     #[test]
+    fn the_input_line_and_fields_give_the_invalid_points_skipped() {
+        let params = Params {
+            outlier_sigma: 0.0,
+            min_fragment: 0,
+            ..Params::default()
+        };
+        let mut r = InputReport {
+            name: "scan.pcd".into(),
+            points_read: 4000,
+            invalid_skipped: 544,
+            points: 4000,
+            normals_given: false,
+            diagonal: 2.0,
+            clean: CleanReport::new(None, &params),
+        };
+        assert!(
+            r.text().starts_with(
+                "input      scan.pcd: 4000 points (544 invalid skipped), normals by PCA"
+            ),
+            "{}",
+            r.text()
+        );
+        let mut o = Obj::default();
+        r.json(&mut o);
+        assert!(o.finish().contains("\"invalid_skipped\": 544"));
+        r.invalid_skipped = 0;
+        assert!(r
+            .text()
+            .starts_with("input      scan.pcd: 4000 points, normals"));
+    }
+
+    #[test]
     fn cleaning_off_reads_off_and_counts_nothing() {
         let params = Params {
             outlier_sigma: 0.0,
