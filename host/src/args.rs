@@ -2,8 +2,10 @@
 //! points ([`read_input`]) and the arena buffer ([`arena_buffer`]) of a run.
 
 use crate::input::{self, Prepared};
+use crate::io::xyz::Columns;
+use crate::io::ReadOptions;
 use crate::progress::StageClock;
-use clap::Args;
+use clap::{Args, ValueEnum};
 use std::mem::MaybeUninit;
 use std::path::PathBuf;
 use vsaqem_core::sample::Shape;
@@ -12,9 +14,21 @@ use vsaqem_core::{Params, Partition};
 /// Where the points come from.
 #[derive(Args, Debug, Clone)]
 pub struct InputArgs {
-    /// Point cloud to read (.ply, .xyz/.xyzn/.txt/.pts, .pcd; normals used when
-    /// present). Without it, a built-in generated sample is used.
+    /// Point cloud to read: .ply, .xyz/.xyzn/.txt/.pts/.csv (text), .pcd, .las/.laz,
+    /// .e57, or a mesh (.obj, .off, .stl; a PLY mesh too) whose vertices are the
+    /// points. Without it, a built-in generated sample is used.
     pub input: Option<PathBuf>,
+    /// Normals in the file: `use` them where finite and non-zero (core estimates
+    /// the others from the neighbours), or `ignore` them all and estimate every
+    /// normal (for normals that are noisy, or oriented inconsistently).
+    #[arg(long, value_enum, value_name = "MODE", default_value_t = NormalsMode::Use)]
+    pub normals: NormalsMode,
+    /// What the columns of a text cloud hold, over its header line or the guess
+    /// from the column count: names separated by commas from x, y, z, nx, ny, nz,
+    /// r, g, b (0-255 or 0-1), and _ for a column to skip (e.g. x,y,z,nx,ny,nz or
+    /// x,y,z,_,r,g,b).
+    #[arg(long, value_name = "NAMES")]
+    pub columns: Option<Columns>,
     /// Built-in sample when no input is given: demo, sphere, torus, box, cylinder
     /// (closed); hemisphere, tube, wave, holed-sphere (open surfaces); scene (a
     /// sphere and a cube apart, plus a stray fragment of 40 points).
@@ -27,6 +41,24 @@ pub struct InputArgs {
     /// bounding-box diagonal (e.g. 0.005 = 0.5 %).
     #[arg(long, default_value_t = 0.0)]
     pub noise: f64,
+}
+
+/// What to do with the normals a file gives (`--normals`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum NormalsMode {
+    /// Use the file's normals where finite and non-zero.
+    Use,
+    /// Drop them: core estimates every normal.
+    Ignore,
+}
+
+impl InputArgs {
+    /// How the input file is to be read.
+    pub fn read_options(&self) -> ReadOptions {
+        ReadOptions {
+            columns: self.columns.clone(),
+        }
+    }
 }
 
 fn parse_shape(s: &str) -> Result<Shape, String> {
@@ -42,13 +74,17 @@ fn parse_shape(s: &str) -> Result<Shape, String> {
 /// Read (or sample) and normalise, timing it.
 pub fn read_input(args: &InputArgs, clock: &mut StageClock) -> Result<Prepared, String> {
     clock.time("read", || {
-        let (name, cloud) = input::load(
+        let (name, mut cloud) = input::load(
             args.input.as_deref(),
+            &args.read_options(),
             args.sample,
             args.points,
             args.noise,
             1,
         )?;
+        if args.normals == NormalsMode::Ignore {
+            cloud.normals = None;
+        }
         Ok(input::prepare(name, cloud))
     })
 }

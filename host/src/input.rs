@@ -1,6 +1,6 @@
 //! Where the points come from: a file, or a built-in generated sample.
 
-use crate::io::{read_cloud, Cloud};
+use crate::io::{read_cloud_with, Cloud, ReadOptions};
 use crate::normalize::Frame;
 use crate::progress::StageClock;
 use std::path::Path;
@@ -28,6 +28,10 @@ pub struct Prepared {
     pub points: Vec<[f32; 3]>,
     /// Normals as given (directions are unchanged by a uniform scale).
     pub normals: Option<Vec<[f32; 3]>>,
+    /// Colours as read, when the file has them.
+    pub colors: Option<Vec<[u8; 3]>>,
+    /// Points the reader skipped as invalid ([`Cloud::invalid`]).
+    pub invalid: usize,
     /// Core coordinates <-> file coordinates.
     pub frame: Frame,
     /// Positions as read, in file coordinates.
@@ -64,13 +68,14 @@ pub fn sample(shape: Shape, points: usize, noise: f64, seed: u64) -> Cloud {
     }
     Cloud {
         positions,
-        normals: None,
+        ..Cloud::default()
     }
 }
 
-/// Read `path`, or make the sample when there is no path.
+/// Read `path` with `options`, or make the sample when there is no path.
 pub fn load(
     path: Option<&Path>,
+    options: &ReadOptions,
     shape: Shape,
     points: usize,
     noise: f64,
@@ -78,7 +83,7 @@ pub fn load(
 ) -> Result<(String, Cloud), String> {
     match path {
         Some(p) => {
-            let cloud = read_cloud(p).map_err(|e| e.to_string())?;
+            let cloud = read_cloud_with(p, options).map_err(|e| e.to_string())?;
             Ok((p.display().to_string(), cloud))
         }
         None => {
@@ -135,7 +140,7 @@ impl Prepared {
         out
     }
 
-    /// Only the points with `keep[i]` (and their normals), normalised again: the
+    /// Only the points with `keep[i]` (and their normals and colours), normalised again: the
     /// frame is fitted to what is left, so core's coordinates span `[-1, 1]` for
     /// the cleaned cloud, as they would had it been read that way.
     pub fn keep(self, keep: &[bool]) -> Prepared {
@@ -147,6 +152,9 @@ impl Prepared {
         let normals = self
             .normals
             .map(|n| (0..n.len()).filter(kept).map(|i| n[i]).collect());
+        let colors = self
+            .colors
+            .map(|c| (0..c.len()).filter(kept).map(|i| c[i]).collect());
         let order = self
             .order
             .map(|o| (0..o.len()).filter(kept).map(|i| o[i]).collect());
@@ -155,14 +163,16 @@ impl Prepared {
             name: self.name,
             points: original.iter().map(|&p| frame.to_core(p)).collect(),
             normals,
+            colors,
+            invalid: self.invalid,
             frame,
             original,
             order,
         }
     }
 
-    /// Clouds of at least [`SPATIAL_ORDER_FROM`] points, with their normals and
-    /// positions as read, in the order of a Morton curve over a 1024^3 grid of
+    /// Clouds of at least [`SPATIAL_ORDER_FROM`] points, with their normals,
+    /// colours and positions as read, in the order of a Morton curve over a 1024^3 grid of
     /// the bounding cube, ties by input position: points near in space come
     /// near in memory, so the neighbour search, the partition and the distance
     /// pass find what they read in the processor's caches. On a million points
@@ -191,6 +201,9 @@ impl Prepared {
         permute(&mut self.points, &order);
         if let Some(normals) = self.normals.as_mut() {
             permute(normals, &order);
+        }
+        if let Some(colors) = self.colors.as_mut() {
+            permute(colors, &order);
         }
         permute(&mut self.original, &order);
         self.order = Some(order);
@@ -252,6 +265,8 @@ pub fn prepare(name: String, cloud: Cloud) -> Prepared {
         name,
         points,
         normals,
+        colors: cloud.colors,
+        invalid: cloud.invalid,
         frame,
         original: cloud.positions,
         order: None,
@@ -288,7 +303,7 @@ mod tests {
                 "grid".into(),
                 Cloud {
                     positions: pts.to_vec(),
-                    normals: None,
+                    ..Cloud::default()
                 },
             )
         };

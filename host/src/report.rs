@@ -17,6 +17,9 @@ pub struct InputReport {
     pub name: String,
     /// Points read, before cleaning.
     pub points_read: usize,
+    /// Points the reader skipped as invalid (NaN or infinite coordinates in a PCD
+    /// or LAS file), not counted in `points_read`.
+    pub invalid_skipped: usize,
     /// Points after cleaning: those core worked on.
     pub points: usize,
     /// Whether the input gave normals (else core estimates them).
@@ -41,6 +44,7 @@ impl InputReport {
         InputReport {
             name: input.name.clone(),
             points_read,
+            invalid_skipped: input.invalid,
             points: input.points.len(),
             normals_given: input.normals.is_some(),
             diagonal: diag as f64 * input.frame.scale,
@@ -55,8 +59,12 @@ impl InputReport {
         } else {
             "normals by PCA"
         };
+        let invalid = match self.invalid_skipped {
+            0 => String::new(),
+            n => format!(" ({n} invalid skipped)"),
+        };
         format!(
-            "input      {}: {} points, {normals}, bounding-box diagonal {:.6}\n\
+            "input      {}: {} points{invalid}, {normals}, bounding-box diagonal {:.6}\n\
              clean      {}\n",
             self.name,
             self.points_read,
@@ -65,14 +73,15 @@ impl InputReport {
         )
     }
 
-    /// `input`, `points`, `normals_given`, `diagonal`, `points_read`, then the
-    /// cleaning fields.
+    /// `input`, `points`, `normals_given`, `diagonal`, `points_read`,
+    /// `invalid_skipped`, then the cleaning fields.
     pub fn json(&self, o: &mut Obj) {
         o.str("input", &self.name)
             .num("points", self.points as f64)
             .bool("normals_given", self.normals_given)
             .num("diagonal", self.diagonal)
-            .num("points_read", self.points_read as f64);
+            .num("points_read", self.points_read as f64)
+            .num("invalid_skipped", self.invalid_skipped as f64);
         self.clean.json(o);
     }
 }
@@ -304,6 +313,38 @@ mod tests {
             "{\n  \"outlier_sigma\": 2,\n  \"min_fragment\": 64,\n  \"outliers_removed\": 3,\
              \n  \"fragments_dropped\": 1,\n  \"fragment_points\": 40\n}"
         );
+    }
+
+    #[test]
+    fn the_input_line_and_fields_give_the_invalid_points_skipped() {
+        let params = Params {
+            outlier_sigma: 0.0,
+            min_fragment: 0,
+            ..Params::default()
+        };
+        let mut r = InputReport {
+            name: "scan.pcd".into(),
+            points_read: 4000,
+            invalid_skipped: 544,
+            points: 4000,
+            normals_given: false,
+            diagonal: 2.0,
+            clean: CleanReport::new(None, &params),
+        };
+        assert!(
+            r.text().starts_with(
+                "input      scan.pcd: 4000 points (544 invalid skipped), normals by PCA"
+            ),
+            "{}",
+            r.text()
+        );
+        let mut o = Obj::default();
+        r.json(&mut o);
+        assert!(o.finish().contains("\"invalid_skipped\": 544"));
+        r.invalid_skipped = 0;
+        assert!(r
+            .text()
+            .starts_with("input      scan.pcd: 4000 points, normals"));
     }
 
     #[test]

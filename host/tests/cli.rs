@@ -79,7 +79,10 @@ fn hostile_files_fail_with_a_clear_message_and_no_output() {
             vec!["collinear.xyz", "one line"],
         ),
         (write(&d, "bad.pcd", b"VERSION .7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 5\nHEIGHT 1\nPOINTS 5\nDATA binary_compressed\n"), vec!["bad.pcd", "compressed"]),
-        (write(&d, "points.stl", b"solid"), vec!["points.stl", ".ply"]),
+        (write(&d, "points.stl", b"solid"), vec!["points.stl", "no triangles"]),
+        (write(&d, "organised.pcd", b"FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 2\nHEIGHT 2\nDATA ascii\nnan nan nan\n1 2 3\n"), vec!["organised.pcd", "line 9: file ends after 2 of 4 points"]),
+        (write(&d, "scan.e57", b"ASTM-E57"), vec!["scan.e57", "E57 header"]),
+        (write(&d, "scan.fls", b"FARO"), vec!["scan.fls", "unknown extension", ".laz"]),
         (d.join("missing.ply"), vec!["missing.ply"]),
     ];
     for (path, needles) in cases {

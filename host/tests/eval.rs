@@ -331,7 +331,7 @@ fn command_fails_cleanly_on_bad_input() {
     let cases: [(&[&Path], &str); 3] = [
         (&[&d.join("missing.xyz"), &mesh], "missing.xyz"),
         (&[&pts, &empty], "no faces"),
-        (&[&pts, &d.join("cube.stl")], "unknown extension"),
+        (&[&pts, &d.join("cube.glb")], "unknown extension"),
     ];
     for (args, needle) in cases {
         let (code, _, err) = run(args);

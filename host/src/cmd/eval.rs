@@ -11,9 +11,10 @@ use std::time::Instant;
 /// `vsaqem eval`.
 #[derive(Args, Debug)]
 pub struct Cmd {
-    /// The input point cloud (.ply, .xyz/.xyzn/.txt/.pts, .pcd).
+    /// The input point cloud (any format `reconstruct` reads: .ply, .xyz/.xyzn/.txt/
+    /// .pts/.csv, .pcd, .las/.laz, .e57, .obj, .off, .stl).
     pub points: PathBuf,
-    /// The mesh to measure (.ply, .obj, .off).
+    /// The mesh to measure (.ply, .obj, .off, .stl).
     pub mesh: PathBuf,
     /// Print the report as JSON instead of text.
     #[arg(long)]

@@ -8,7 +8,7 @@ use std::path::PathBuf;
 /// `vsaqem render`.
 #[derive(Args, Debug)]
 pub struct Cmd {
-    /// Meshes to render (.ply, .obj, .off); several are put side by side, labelled
+    /// Meshes to render (.ply, .obj, .off, .stl); several are put side by side, labelled
     /// with their file names and framed alike.
     #[arg(required = true)]
     pub meshes: Vec<PathBuf>,

@@ -1,26 +1,39 @@
-//! File formats: point clouds in (PLY, XYZ, PCD), meshes and labelled points out
-//! (PLY, OBJ, OFF), and meshes back in (PLY, OBJ, OFF) for evaluation.
+//! File formats: point clouds in (PLY, text, PCD, LAS/LAZ, E57, and the vertices of
+//! OBJ, OFF and STL meshes), meshes and labelled points out (PLY, OBJ, OFF), and
+//! meshes back in (PLY, OBJ, OFF, STL) for evaluation.
 //!
 //! Every reader loads the whole file with `std::fs::read` (inputs are tens of MB at
 //! most) and parses the byte slice in one pass: O(file size) time, memory proportional
 //! to the output. Readers are written for hostile input:
 //! - any malformed file is a [`ReadError`] naming the path, the place (1-based line for
-//!   text, element index or byte offset for binary) and the offending value; never a panic;
+//!   text, element index or byte offset for binary) and the offending value; never a
+//!   panic (the decoders of other crates run under `quiet_catch`);
 //! - nothing is reserved from a header count until the bytes that count promises are
-//!   known to exist, so `element vertex 4000000000` over a 100-byte body fails at once;
-//! - positions must be finite (the error names the vertex); normals pass through as read,
-//!   NaN or zero included, because core decides what a bad normal means.
+//!   known to exist, so `element vertex 4000000000` over a 100-byte body fails at once,
+//!   and every size computed from a header is checked arithmetic;
+//! - positions must be finite: PCD, LAS/LAZ and E57, whose tools mark a missing
+//!   measure with a NaN or an invalid flag, skip such points and count them
+//!   ([`Cloud::invalid`]); the other formats reject them (the error names the vertex);
+//! - normals pass through as read, NaN or zero included, because core decides what a
+//!   bad normal means.
 //!
 //! Writers go through [`write_atomic`]: a reader of the target never sees half a file.
 
+use std::cell::Cell;
 use std::fmt;
 use std::io;
+use std::panic::AssertUnwindSafe;
 use std::path::{Path, PathBuf};
+use std::sync::Once;
 
+pub mod e57;
+pub mod las;
+pub mod lzf;
 pub mod obj;
 pub mod off;
 pub mod pcd;
 pub mod ply;
+pub mod stl;
 pub mod write;
 pub mod xyz;
 
@@ -29,13 +42,20 @@ pub use write::{publish, write_atomic, write_mesh, write_points_ply, MeshFormat,
 /// A point cloud as read from a file, in the file's own units (`f64`).
 ///
 /// Invariant: `positions` is non-empty and every coordinate is finite; when present,
-/// `normals` has exactly one entry per position (entries may be NaN or zero).
+/// `normals` and `colors` have exactly one entry per position (normals may be NaN or
+/// zero).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Cloud {
     /// Point positions, all finite.
     pub positions: Vec<[f64; 3]>,
     /// Per-point normals exactly as stored in the file, if it has them.
     pub normals: Option<Vec<[f64; 3]>>,
+    /// Per-point colours (8 bits a channel), if the file has them.
+    pub colors: Option<Vec<[u8; 3]>>,
+    /// Points the file holds but the cloud leaves out because a coordinate is NaN
+    /// or infinite: formats whose tools mark missing points that way (PCD, LAS)
+    /// skip them and count them here; the others reject them.
+    pub invalid: usize,
 }
 
 /// A triangle mesh as read from a file: vertex positions (finite) and triangles whose
@@ -43,35 +63,99 @@ pub struct Cloud {
 pub type Mesh = (Vec<[f64; 3]>, Vec<[u32; 3]>);
 
 /// Extensions [`read_cloud`] understands (lower case, compared case-insensitively).
-pub const CLOUD_EXTENSIONS: &str = ".ply, .xyz, .xyzn, .txt, .pts, .pcd";
+pub const CLOUD_EXTENSIONS: &str =
+    ".ply, .xyz, .xyzn, .txt, .pts, .csv, .pcd, .las, .laz, .e57, .obj, .off, .stl";
 /// Extensions [`read_mesh`] understands.
-pub const MESH_EXTENSIONS: &str = ".ply, .obj, .off";
+pub const MESH_EXTENSIONS: &str = ".ply, .obj, .off, .stl";
 
-/// Reads a point cloud, choosing the format from the extension (case-insensitive):
-/// `.ply`; `.xyz`, `.xyzn`, `.txt`, `.pts` (XYZ text); `.pcd`.
-///
-/// Cost: one read of the file plus one pass over its bytes.
-pub fn read_cloud(path: &Path) -> Result<Cloud, ReadError> {
-    let ext = extension(path);
-    let parse: fn(&[u8]) -> Result<Cloud, ReadErrorKind> = match ext.as_deref() {
-        Some("ply") => ply::parse_cloud,
-        Some("xyz" | "xyzn" | "txt" | "pts") => xyz::parse_cloud,
-        Some("pcd") => pcd::parse_cloud,
-        _ => return Err(unknown_extension(path, ext, CLOUD_EXTENSIONS)),
-    };
-    let data = load(path)?;
-    parse(&data).map_err(|kind| ReadError::new(path, kind))
+/// How to read a cloud, beyond what the file says.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct ReadOptions {
+    /// The columns of a text cloud (`--columns`), over its header or column count;
+    /// for another format an error.
+    pub columns: Option<xyz::Columns>,
 }
 
-/// Reads a triangle mesh (`.ply` with a `face` element, `.obj`, `.off`), triangulating
-/// polygons as fans. Same robustness rules as [`read_cloud`]; a face index out of range
-/// is an error naming the face.
+/// A cloud format, from the extension.
+#[derive(Clone, Copy)]
+enum CloudFormat {
+    Ply,
+    Text,
+    Pcd,
+    Las,
+    E57,
+    /// A mesh, whose vertices are the points.
+    Mesh(fn(&[u8]) -> Result<Mesh, ReadErrorKind>),
+}
+
+/// Reads a point cloud with the default [`ReadOptions`], see [`read_cloud_with`].
+pub fn read_cloud(path: &Path) -> Result<Cloud, ReadError> {
+    read_cloud_with(path, &ReadOptions::default())
+}
+
+/// Reads a point cloud, choosing the format from the extension (case-insensitive):
+/// `.ply`; `.xyz`, `.xyzn`, `.txt`, `.pts`, `.csv` (text, [`xyz`]); `.pcd`;
+/// `.las`, `.laz`; `.e57`; and the meshes `.obj`, `.off`, `.stl`, whose vertices are the
+/// points (a PLY mesh is read that way too).
+///
+/// Cost: one read of the file plus one pass over its bytes.
+pub fn read_cloud_with(path: &Path, options: &ReadOptions) -> Result<Cloud, ReadError> {
+    let ext = extension(path);
+    let format = match ext.as_deref() {
+        Some("ply") => CloudFormat::Ply,
+        Some("xyz" | "xyzn" | "txt" | "pts" | "csv") => CloudFormat::Text,
+        Some("pcd") => CloudFormat::Pcd,
+        Some("las" | "laz") => CloudFormat::Las,
+        Some("e57") => CloudFormat::E57,
+        Some("obj") => CloudFormat::Mesh(obj::parse_mesh),
+        Some("off") => CloudFormat::Mesh(off::parse_mesh),
+        Some("stl") => CloudFormat::Mesh(stl::parse_mesh),
+        _ => return Err(unknown_extension(path, ext, CLOUD_EXTENSIONS)),
+    };
+    if let (Some(columns), false) = (&options.columns, matches!(format, CloudFormat::Text)) {
+        return Err(ReadError::new(
+            path,
+            ReadErrorKind::unsupported(
+                At::File,
+                format!(
+                    "--columns {columns} for a .{} file (it names the columns of text \
+                     clouds: .xyz, .xyzn, .txt, .pts, .csv)",
+                    ext.unwrap_or_default()
+                ),
+            ),
+        ));
+    }
+    let data = load(path)?;
+    let cloud = match format {
+        CloudFormat::Ply => ply::parse_cloud(&data),
+        CloudFormat::Text => xyz::parse_cloud(&data, options.columns.as_ref()),
+        CloudFormat::Pcd => pcd::parse_cloud(&data),
+        CloudFormat::Las => las::parse_cloud(data),
+        CloudFormat::E57 => e57::parse_cloud(data),
+        CloudFormat::Mesh(parse) => parse(&data).map(|(positions, _)| Cloud {
+            positions,
+            ..Cloud::default()
+        }),
+    };
+    match cloud {
+        Ok(c) if c.positions.is_empty() => {
+            Err(ReadError::new(path, ReadErrorKind::file("no points")))
+        }
+        Ok(c) => Ok(c),
+        Err(kind) => Err(ReadError::new(path, kind)),
+    }
+}
+
+/// Reads a triangle mesh (`.ply` with a `face` element, `.obj`, `.off`, `.stl`),
+/// triangulating polygons as fans. Same robustness rules as [`read_cloud`]; a face
+/// index out of range is an error naming the face.
 pub fn read_mesh(path: &Path) -> Result<Mesh, ReadError> {
     let ext = extension(path);
     let parse: fn(&[u8]) -> Result<Mesh, ReadErrorKind> = match ext.as_deref() {
         Some("ply") => ply::parse_mesh,
         Some("obj") => obj::parse_mesh,
         Some("off") => off::parse_mesh,
+        Some("stl") => stl::parse_mesh,
         _ => return Err(unknown_extension(path, ext, MESH_EXTENSIONS)),
     };
     let data = load(path)?;
@@ -268,6 +352,33 @@ pub(crate) fn check_finite(
         }
     }
     Ok(())
+}
+
+thread_local! {
+    /// Set while `quiet_catch` runs its closure on this thread.
+    static QUIET: Cell<bool> = const { Cell::new(false) };
+}
+
+/// Runs `f`, turning a panic into `Err` without a message on stderr, for the
+/// decoders of other crates: the `laz` decoder asserts on some damaged streams
+/// (laz 0.13: `sym < (1 << 16)` in its arithmetic decoder) instead of returning an
+/// error; this keeps a damaged file a read error. Only this thread's panics
+/// inside `f` are silenced: the panic hook installed here hands every other panic
+/// to the previous hook.
+pub(crate) fn quiet_catch<T>(f: impl FnOnce() -> T) -> std::thread::Result<T> {
+    static HOOK: Once = Once::new();
+    HOOK.call_once(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if !QUIET.with(Cell::get) {
+                previous(info);
+            }
+        }));
+    });
+    QUIET.with(|q| q.set(true));
+    let r = std::panic::catch_unwind(AssertUnwindSafe(f));
+    QUIET.with(|q| q.set(false));
+    r
 }
 
 /// A token from a file, quoted and cut to a readable length for an error message.

@@ -1,12 +1,23 @@
 //! PCD (Point Cloud Library) files, v0.7 and the older headers without `VERSION`:
-//! `FIELDS` (or `COLUMNS`) with `x y z` and optional `normal_x normal_y normal_z`,
-//! other fields skipped according to `SIZE`/`TYPE`/`COUNT`; `POINTS` (or
-//! `WIDTH * HEIGHT`); `DATA ascii` or `DATA binary` (little-endian, row after row).
-//! `DATA binary_compressed` is reported as not supported.
+//! `FIELDS` (or `COLUMNS`) in any order with `x y z`, optional
+//! `normal_x normal_y normal_z` and a packed colour `rgb` or `rgba` (4 bytes,
+//! `0x..RRGGBB`, as PCL stores it); every other field is skipped by its
+//! `SIZE`/`TYPE`/`COUNT`. `POINTS` (or `WIDTH * HEIGHT`: organised clouds are read
+//! row after row). `DATA ascii`, `DATA binary` (little-endian, point after point) or
+//! `DATA binary_compressed` (two little-endian `u32`, the compressed and the
+//! decompressed size, then an LZF stream of the points field after field, see
+//! [`super::lzf`]).
 //!
-//! Cost: one pass over the bytes; memory is the output.
+//! A point with a NaN or infinite coordinate is how PCL marks a pixel without a
+//! measure in an organised cloud: it is skipped and counted ([`Cloud::invalid`]).
+//! A file whose header and body disagree is an error naming the line or byte.
+//! Every size computed from the header is checked arithmetic, and nothing is
+//! reserved before the bytes it stands for are known to be there.
+//!
+//! Cost: one pass over the bytes; memory is the output (and, for
+//! `binary_compressed`, the decompressed body).
 
-use super::{check_finite, safe_capacity, At, Cloud, Lines, ReadErrorKind, Scalar, Shown};
+use super::{lzf, safe_capacity, At, Cloud, Lines, ReadErrorKind, Scalar, Shown};
 
 type Result<T> = core::result::Result<T, ReadErrorKind>;
 
@@ -14,6 +25,13 @@ struct Field {
     name: String,
     ty: Scalar,
     count: usize,
+    /// Bytes of one point's values of this field (`count * ty.size()`).
+    bytes: usize,
+    /// Offset of the field in a binary row, and of its block in a compressed body
+    /// (times the point count).
+    offset: usize,
+    /// First column of the field in an ASCII row.
+    column: usize,
 }
 
 fn field_type(ty: &str, size: &str) -> Option<Scalar> {
@@ -66,8 +84,39 @@ fn per_field<'a>(e: Entry<'a>, nf: usize, key: &str) -> Result<Entry<'a>> {
     }
 }
 
-/// Parses a PCD cloud.
-pub fn parse_cloud(data: &[u8]) -> Result<Cloud> {
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Data {
+    Ascii,
+    Binary,
+    Compressed,
+}
+
+/// The header: fields, point count, the body's encoding and where it starts.
+struct Header {
+    fields: Vec<Field>,
+    fields_line: usize,
+    points: u64,
+    data: Data,
+    /// Byte offset of the body.
+    body: usize,
+    /// Line number of the body's first line.
+    body_line: usize,
+}
+
+impl Header {
+    /// Bytes of one point over every field (their sum was checked as the fields
+    /// were built, since each `COUNT` is the file's).
+    fn row_bytes(&self) -> usize {
+        self.fields.last().map_or(0, |f| f.offset + f.bytes)
+    }
+
+    /// Values of one point in an ASCII row.
+    fn columns(&self) -> usize {
+        self.fields.last().map_or(0, |f| f.column + f.count)
+    }
+}
+
+fn parse_header(data: &[u8]) -> Result<Header> {
     if data.is_empty() {
         return Err(ReadErrorKind::file("file is empty"));
     }
@@ -101,7 +150,12 @@ pub fn parse_cloud(data: &[u8]) -> Result<Cloud> {
             "POINTS" => &mut points_e,
             "DATA" => match values.as_slice() {
                 [kind] => break (n, *kind),
-                _ => return Err(ReadErrorKind::line(n, "expected \"DATA ascii|binary\"")),
+                _ => {
+                    return Err(ReadErrorKind::line(
+                        n,
+                        "expected \"DATA ascii|binary|binary_compressed\"",
+                    ))
+                }
             },
             _ => {
                 return Err(ReadErrorKind::line(
@@ -115,20 +169,15 @@ pub fn parse_cloud(data: &[u8]) -> Result<Cloud> {
         }
         *slot = Some((n, values));
     };
-    let binary = match data_kind {
-        "ascii" => false,
-        "binary" => true,
-        "binary_compressed" => {
-            return Err(ReadErrorKind::unsupported(
-                At::Line(data_line),
-                "DATA binary_compressed (re-save the cloud as ascii or binary)",
-            ))
-        }
+    let data_enc = match data_kind {
+        "ascii" => Data::Ascii,
+        "binary" => Data::Binary,
+        "binary_compressed" => Data::Compressed,
         other => {
             return Err(ReadErrorKind::line(
                 data_line,
                 format!(
-                    "unknown DATA kind {} (expected ascii or binary)",
+                    "unknown DATA kind {} (expected ascii, binary or binary_compressed)",
                     Shown(other)
                 ),
             ))
@@ -145,7 +194,8 @@ pub fn parse_cloud(data: &[u8]) -> Result<Cloud> {
     let (type_line, types) = per_field(type_e, nf, "TYPE")?
         .ok_or_else(|| ReadErrorKind::file("header has no TYPE line"))?;
     let counts = per_field(count_e, nf, "COUNT")?;
-    let mut fields = Vec::with_capacity(nf);
+    let mut fields: Vec<Field> = Vec::with_capacity(nf);
+    let (mut offset, mut column) = (0usize, 0usize);
     for (i, name) in names.iter().enumerate() {
         let ty = field_type(types[i], sizes[i]).ok_or_else(|| {
             ReadErrorKind::line(
@@ -157,10 +207,10 @@ pub fn parse_cloud(data: &[u8]) -> Result<Cloud> {
                 ),
             )
         })?;
-        let count = match &counts {
-            None => 1,
+        let (count_line, count) = match &counts {
+            None => (fields_line, 1),
             Some((n, c)) => match c[i].parse::<usize>() {
-                Ok(k) if k >= 1 => k,
+                Ok(k) if k >= 1 => (*n, k),
                 _ => {
                     return Err(ReadErrorKind::line(
                         *n,
@@ -172,37 +222,24 @@ pub fn parse_cloud(data: &[u8]) -> Result<Cloud> {
                 }
             },
         };
+        let too_large = || {
+            ReadErrorKind::line(
+                count_line,
+                format!("field '{name}': COUNT {count} makes a point too large"),
+            )
+        };
+        let bytes = count.checked_mul(ty.size()).ok_or_else(too_large)?;
         fields.push(Field {
             name: (*name).to_string(),
             ty,
             count,
+            bytes,
+            offset,
+            column,
         });
+        offset = offset.checked_add(bytes).ok_or_else(too_large)?;
+        column = column.checked_add(count).ok_or_else(too_large)?;
     }
-    let find = |name: &str| -> Result<Option<usize>> {
-        match fields.iter().position(|f| f.name == name) {
-            Some(i) if fields[i].count != 1 => Err(ReadErrorKind::line(
-                fields_line,
-                format!("field '{name}' has COUNT {}, expected 1", fields[i].count),
-            )),
-            other => Ok(other),
-        }
-    };
-    let mut xyz = [0usize; 3];
-    for (k, name) in ["x", "y", "z"].into_iter().enumerate() {
-        xyz[k] = find(name)?
-            .ok_or_else(|| ReadErrorKind::line(fields_line, format!("FIELDS has no '{name}'")))?;
-    }
-    let normal_idx = [find("normal_x")?, find("normal_y")?, find("normal_z")?];
-    let normal_idx = match normal_idx {
-        [Some(a), Some(b), Some(c)] => Some([a, b, c]),
-        [None, None, None] => None,
-        _ => {
-            return Err(ReadErrorKind::line(
-                fields_line,
-                "FIELDS has some but not all of normal_x normal_y normal_z",
-            ))
-        }
-    };
 
     // Point count.
     let width = single(&width_e, "WIDTH")?
@@ -212,10 +249,9 @@ pub fn parse_cloud(data: &[u8]) -> Result<Cloud> {
         .map(|(n, t)| parse_u64(t, n, "HEIGHT"))
         .transpose()?;
     let wh = match (width, height) {
-        (Some(w), h) => Some(
-            w.checked_mul(h.unwrap_or(1))
-                .ok_or_else(|| ReadErrorKind::file("WIDTH * HEIGHT overflows"))?,
-        ),
+        (Some(w), h) => Some(w.checked_mul(h.unwrap_or(1)).ok_or_else(|| {
+            ReadErrorKind::file(format!("WIDTH {w} * HEIGHT {} overflows", h.unwrap_or(1)))
+        })?),
         _ => None,
     };
     let points = match single(&points_e, "POINTS")? {
@@ -237,110 +273,305 @@ pub fn parse_cloud(data: &[u8]) -> Result<Cloud> {
             "the header declares 0 points",
         ));
     }
+    Ok(Header {
+        fields,
+        fields_line,
+        points,
+        data: data_enc,
+        body: lines.pos(),
+        body_line: lines.next_no(),
+    })
+}
 
-    let body = lines.pos();
-    let avail = data.len() - body;
-    let columns: usize = fields.iter().map(|f| f.count).sum();
-    let row_bytes: usize = fields.iter().map(|f| f.count * f.ty.size()).sum();
-    let min_row = if binary { row_bytes } else { 2 * columns };
-    let cap = safe_capacity(points, avail, min_row);
-    let mut positions = Vec::with_capacity(cap);
-    let mut normals = Vec::with_capacity(if normal_idx.is_some() { cap } else { 0 });
+/// Which fields the cloud takes its values from.
+struct Plan {
+    xyz: [usize; 3],
+    normals: Option<[usize; 3]>,
+    /// A packed `rgb`/`rgba` field of 4 bytes.
+    rgb: Option<usize>,
+}
 
-    if binary {
-        let fits = points
-            .checked_mul(row_bytes as u64)
-            .is_some_and(|need| need <= avail as u64);
-        if !fits {
-            return Err(ReadErrorKind::invalid(
-                At::Byte(body),
-                format!(
-                    "header declares {points} points of {row_bytes} bytes but only {avail} \
-                     bytes of data follow"
-                ),
-            ));
+fn plan(h: &Header) -> Result<Plan> {
+    let fields = &h.fields;
+    let find = |name: &str| -> Result<Option<usize>> {
+        match fields.iter().position(|f| f.name == name) {
+            Some(i) if fields[i].count != 1 => Err(ReadErrorKind::line(
+                h.fields_line,
+                format!("field '{name}' has COUNT {}, expected 1", fields[i].count),
+            )),
+            other => Ok(other),
         }
-        let mut offsets = Vec::with_capacity(nf);
-        let mut off = 0;
-        for f in &fields {
-            offsets.push(off);
-            off += f.count * f.ty.size();
+    };
+    let mut xyz = [0usize; 3];
+    for (k, name) in ["x", "y", "z"].into_iter().enumerate() {
+        xyz[k] = find(name)?
+            .ok_or_else(|| ReadErrorKind::line(h.fields_line, format!("FIELDS has no '{name}'")))?;
+    }
+    let normals = match [find("normal_x")?, find("normal_y")?, find("normal_z")?] {
+        [Some(a), Some(b), Some(c)] => Some([a, b, c]),
+        [None, None, None] => None,
+        _ => {
+            return Err(ReadErrorKind::line(
+                h.fields_line,
+                "FIELDS has some but not all of normal_x normal_y normal_z",
+            ))
         }
-        let value = |row: &[u8], i: usize| {
-            row.get(offsets[i]..)
-                .and_then(|b| fields[i].ty.decode(b, false))
-                .unwrap_or(f64::NAN)
-        };
-        // points * row_bytes <= avail, checked above.
-        for (i, row) in data[body..]
-            .chunks_exact(row_bytes)
-            .take(points as usize)
-            .enumerate()
-        {
-            let p = xyz.map(|k| value(row, k));
-            check_finite(p, i as u64, None)?;
-            positions.push(p);
-            if let Some(nk) = normal_idx {
-                normals.push(nk.map(|k| value(row, k)));
-            }
-        }
-    } else {
-        let mut toks: Vec<&str> = Vec::with_capacity(columns);
-        let mut starts = Vec::with_capacity(nf);
-        let mut col = 0;
-        for f in &fields {
-            starts.push(col);
-            col += f.count;
-        }
-        let mut vals = vec![0.0f64; columns];
-        for index in 0..points {
-            let (n, line) = loop {
-                let Some(next) = lines.next_text() else {
-                    return Err(ReadErrorKind::line(
-                        lines.next_no(),
-                        format!("file ends after {index} of {points} points"),
-                    ));
-                };
-                let (n, line) = next?;
-                if !line.trim().is_empty() {
-                    break (n, line);
-                }
-            };
-            toks.clear();
-            toks.extend(line.split_ascii_whitespace());
-            if toks.len() != columns {
-                return Err(ReadErrorKind::line(
-                    n,
-                    format!("expected {columns} values, found {}", toks.len()),
-                ));
-            }
-            for (fi, f) in fields.iter().enumerate() {
-                for c in starts[fi]..starts[fi] + f.count {
-                    vals[c] = f.ty.parse_text(toks[c]).ok_or_else(|| {
-                        ReadErrorKind::line(
-                            n,
-                            format!(
-                                "field '{}': {} is not a valid {}",
-                                f.name,
-                                Shown(toks[c]),
-                                f.ty.name()
-                            ),
-                        )
-                    })?;
-                }
-            }
-            let p = xyz.map(|k| vals[starts[k]]);
-            check_finite(p, index, Some(n))?;
-            positions.push(p);
-            if let Some(nk) = normal_idx {
-                normals.push(nk.map(|k| vals[starts[k]]));
-            }
+    };
+    // A colour of another shape (e.g. COUNT 3) is skipped like any extra field.
+    let rgb = fields
+        .iter()
+        .position(|f| (f.name == "rgb" || f.name == "rgba") && f.count == 1 && f.bytes == 4);
+    Ok(Plan { xyz, normals, rgb })
+}
+
+/// `0x..RRGGBB` as PCL packs a colour into 4 bytes.
+fn unpack(bits: u32) -> [u8; 3] {
+    [(bits >> 16) as u8, (bits >> 8) as u8, bits as u8]
+}
+
+/// The cloud being built: points with finite positions, the others counted.
+struct Builder {
+    cloud: Cloud,
+    normals: Vec<[f64; 3]>,
+    colors: Vec<[u8; 3]>,
+}
+
+impl Builder {
+    fn new(cap: usize, plan: &Plan) -> Self {
+        let cap_if = |on: bool| if on { cap } else { 0 };
+        Builder {
+            cloud: Cloud {
+                positions: Vec::with_capacity(cap),
+                ..Cloud::default()
+            },
+            normals: Vec::with_capacity(cap_if(plan.normals.is_some())),
+            colors: Vec::with_capacity(cap_if(plan.rgb.is_some())),
         }
     }
-    Ok(Cloud {
-        positions,
-        normals: normal_idx.map(|_| normals),
-    })
+
+    /// Adds a point, or counts it as invalid when a coordinate is not finite.
+    fn push(&mut self, p: [f64; 3], normal: Option<[f64; 3]>, color: Option<[u8; 3]>) {
+        if !p.iter().all(|v| v.is_finite()) {
+            self.cloud.invalid += 1;
+            return;
+        }
+        self.cloud.positions.push(p);
+        self.normals.extend(normal);
+        self.colors.extend(color);
+    }
+
+    fn finish(self, h: &Header, plan: &Plan) -> Result<Cloud> {
+        if self.cloud.positions.is_empty() {
+            return Err(ReadErrorKind::file(format!(
+                "no valid points: all {} have a NaN or infinite coordinate",
+                h.points
+            )));
+        }
+        Ok(Cloud {
+            normals: plan.normals.map(|_| self.normals),
+            colors: plan.rgb.map(|_| self.colors),
+            ..self.cloud
+        })
+    }
+}
+
+/// Parses a PCD cloud.
+pub fn parse_cloud(data: &[u8]) -> Result<Cloud> {
+    let h = parse_header(data)?;
+    let plan = plan(&h)?;
+    match h.data {
+        Data::Ascii => parse_ascii(data, &h, &plan),
+        Data::Binary => parse_binary(data, &h, &plan),
+        Data::Compressed => parse_compressed(data, &h, &plan),
+    }
+}
+
+/// Decodes the points of a binary body; `at(i, f)` is where point `i`'s value of
+/// field `f` starts in `bytes` (in range: the caller checked the body's size).
+fn decode_points(
+    h: &Header,
+    plan: &Plan,
+    bytes: &[u8],
+    at: impl Fn(usize, &Field) -> usize,
+) -> Result<Cloud> {
+    // points * row_bytes <= bytes.len(), checked by the caller: `points` fits.
+    let n = h.points as usize;
+    let mut b = Builder::new(n, plan);
+    let value = |i: usize, k: usize| {
+        let f = &h.fields[k];
+        f.ty.decode(&bytes[at(i, f)..], false).unwrap_or(f64::NAN)
+    };
+    for i in 0..n {
+        let p = plan.xyz.map(|k| value(i, k));
+        let normal = plan.normals.map(|nk| nk.map(|k| value(i, k)));
+        let color = plan.rgb.map(|k| {
+            let s = at(i, &h.fields[k]);
+            unpack(u32::from_le_bytes([
+                bytes[s],
+                bytes[s + 1],
+                bytes[s + 2],
+                bytes[s + 3],
+            ]))
+        });
+        b.push(p, normal, color);
+    }
+    b.finish(h, plan)
+}
+
+/// `points * row_bytes`, when that fits in `avail` bytes.
+fn body_fits(h: &Header, avail: usize) -> Option<usize> {
+    h.points
+        .checked_mul(h.row_bytes() as u64)
+        .filter(|&need| need <= avail as u64)
+        .map(|need| need as usize)
+}
+
+fn parse_binary(data: &[u8], h: &Header, plan: &Plan) -> Result<Cloud> {
+    let avail = data.len() - h.body;
+    let row = h.row_bytes();
+    if body_fits(h, avail).is_none() {
+        return Err(ReadErrorKind::invalid(
+            At::Byte(h.body),
+            format!(
+                "header declares {} points of {row} bytes but only {avail} bytes of data follow",
+                h.points
+            ),
+        ));
+    }
+    decode_points(h, plan, &data[h.body..], |i, f| i * row + f.offset)
+}
+
+fn parse_compressed(data: &[u8], h: &Header, plan: &Plan) -> Result<Cloud> {
+    let body = &data[h.body..];
+    let size_at = |k: usize| {
+        body.get(4 * k..4 * k + 4)
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize)
+    };
+    let (Some(packed), Some(unpacked)) = (size_at(0), size_at(1)) else {
+        return Err(ReadErrorKind::invalid(
+            At::Byte(h.body),
+            format!(
+                "binary_compressed data needs two 4-byte sizes, only {} bytes follow",
+                body.len()
+            ),
+        ));
+    };
+    let stream = &body[8..];
+    if packed > stream.len() {
+        return Err(ReadErrorKind::invalid(
+            At::Byte(h.body),
+            format!(
+                "binary_compressed data of {packed} bytes declared, only {} follow",
+                stream.len()
+            ),
+        ));
+    }
+    let row = h.row_bytes();
+    let want = h.points.checked_mul(row as u64);
+    if want != Some(unpacked as u64) {
+        let want = want.map_or("more than 2^64".to_string(), |n| n.to_string());
+        return Err(ReadErrorKind::invalid(
+            At::Byte(h.body),
+            format!(
+                "binary_compressed data decompresses to {unpacked} bytes, but {} points \
+                 of {row} bytes need {want}",
+                h.points
+            ),
+        ));
+    }
+    if unpacked > packed.saturating_mul(lzf::MAX_RATIO) {
+        return Err(ReadErrorKind::invalid(
+            At::Byte(h.body),
+            format!(
+                "{packed} compressed bytes cannot decompress to {unpacked} \
+                 (LZF expands at most {} times)",
+                lzf::MAX_RATIO
+            ),
+        ));
+    }
+    let fields = lzf::decompress(&stream[..packed], unpacked).map_err(|e| {
+        ReadErrorKind::invalid(
+            At::Byte(h.body + 8 + e.at),
+            format!("binary_compressed data: {}", e.what),
+        )
+    })?;
+    // Field after field: field f's block starts at points * offset.
+    let n = h.points as usize;
+    decode_points(h, plan, &fields, |i, f| n * f.offset + i * f.bytes)
+}
+
+fn parse_ascii(data: &[u8], h: &Header, plan: &Plan) -> Result<Cloud> {
+    let avail = data.len() - h.body;
+    let columns = h.columns();
+    let mut b = Builder::new(
+        safe_capacity(h.points, avail, columns.saturating_mul(2)),
+        plan,
+    );
+    let mut lines = Lines::new(data, h.body, h.body_line);
+    let mut toks: Vec<&str> = Vec::with_capacity(columns.min(avail));
+    for index in 0..h.points {
+        let (n, line) = loop {
+            let Some(next) = lines.next_text() else {
+                return Err(ReadErrorKind::line(
+                    lines.next_no(),
+                    format!("file ends after {index} of {} points", h.points),
+                ));
+            };
+            let (n, line) = next?;
+            if !line.trim().is_empty() {
+                break (n, line);
+            }
+        };
+        toks.clear();
+        toks.extend(line.split_ascii_whitespace());
+        if toks.len() != columns {
+            return Err(ReadErrorKind::line(
+                n,
+                format!("expected {columns} values, found {}", toks.len()),
+            ));
+        }
+        let bad = |f: &Field, tok: &str| {
+            ReadErrorKind::line(
+                n,
+                format!(
+                    "field '{}': {} is not a valid {}",
+                    f.name,
+                    Shown(tok),
+                    f.ty.name()
+                ),
+            )
+        };
+        // Every value is checked, skipped fields too: a garbled line is an error.
+        for f in &h.fields {
+            for tok in &toks[f.column..f.column + f.count] {
+                f.ty.parse_text(tok).ok_or_else(|| bad(f, tok))?;
+            }
+        }
+        let value = |k: usize| {
+            let f = &h.fields[k];
+            f.ty.parse_text(toks[f.column]).unwrap_or(f64::NAN)
+        };
+        let p = plan.xyz.map(value);
+        let normal = plan.normals.map(|nk| nk.map(value));
+        let color = plan
+            .rgb
+            .map(|k| {
+                let f = &h.fields[k];
+                let tok = toks[f.column];
+                // A float field holds the colour's bits (PCL writes them as a float).
+                let bits = match f.ty {
+                    Scalar::F32 => tok.parse::<f32>().ok().map(f32::to_bits),
+                    _ => tok
+                        .parse::<u32>()
+                        .ok()
+                        .or_else(|| tok.parse::<i32>().ok().map(|v| v as u32)),
+                };
+                bits.map(unpack).ok_or_else(|| bad(f, tok))
+            })
+            .transpose()?;
+        b.push(p, normal, color);
+    }
+    b.finish(h, plan)
 }
 
 #[cfg(test)]
@@ -352,13 +583,15 @@ mod tests {
         VIEWPOINT 0 0 0 1 0 0 0\nPOINTS 2\n";
 
     #[test]
-    fn ascii_with_skipped_field_and_normals() {
+    fn ascii_with_colour_and_normals() {
         let c = parse_cloud(
-            format!("{HEAD}DATA ascii\n1 2 3 4278190080 0 0 1\n4 5 6 0 nan 0 0\n").as_bytes(),
+            format!("{HEAD}DATA ascii\n1 2 3 4278255360 0 0 1\n4 5 6 0 nan 0 0\n").as_bytes(),
         )
         .unwrap();
         assert_eq!(c.positions, vec![[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]]);
         assert!(c.normals.unwrap()[1][0].is_nan());
+        assert_eq!(c.colors, Some(vec![[0, 255, 0], [0, 0, 0]]));
+        assert_eq!(c.invalid, 0);
     }
 
     #[test]
@@ -376,17 +609,80 @@ mod tests {
         data.extend_from_slice(&7i16.to_le_bytes());
         let c = parse_cloud(&data).unwrap();
         assert_eq!(c.positions, vec![[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]]);
-        assert_eq!(c.normals, None);
+        assert_eq!((c.normals, c.colors), (None, None));
+    }
+
+    /// A compressed body of `points` rows given field by field.
+    fn compressed(head: &str, blocks: &[Vec<u8>]) -> Vec<u8> {
+        let raw: Vec<u8> = blocks.concat();
+        let packed = lzf::compress(&raw);
+        let mut data = head.as_bytes().to_vec();
+        data.extend((packed.len() as u32).to_le_bytes());
+        data.extend((raw.len() as u32).to_le_bytes());
+        data.extend(packed);
+        data
+    }
+
+    fn f32s(v: &[f32]) -> Vec<u8> {
+        v.iter().flat_map(|x| x.to_le_bytes()).collect()
     }
 
     #[test]
-    fn compressed_is_reported_unsupported() {
-        let e = parse_cloud(format!("{HEAD}DATA binary_compressed\n").as_bytes())
+    fn compressed_organised_cloud_in_any_field_order_skips_nan_pixels() {
+        // 2 x 2 organised, fields z, rgb, x, pad (COUNT 3), y; one NaN pixel.
+        let head = "FIELDS z rgb x pad y\nSIZE 4 4 4 1 4\nTYPE F F F U F\nCOUNT 1 1 1 3 1\n\
+                    WIDTH 2\nHEIGHT 2\nDATA binary_compressed\n";
+        let nan = f32::NAN;
+        let rgb: Vec<u8> = [0x00ff_0000u32, 0x0000_ff00, 0, 0x0000_00ff]
+            .iter()
+            .flat_map(|v| v.to_le_bytes())
+            .collect();
+        let data = compressed(
+            head,
+            &[
+                f32s(&[3.0, 6.0, nan, 9.0]),
+                rgb,
+                f32s(&[1.0, 4.0, nan, 7.0]),
+                vec![0xee; 12],
+                f32s(&[2.0, 5.0, nan, 8.0]),
+            ],
+        );
+        let c = parse_cloud(&data).unwrap();
+        assert_eq!(
+            c.positions,
+            vec![[1.0, 2.0, 3.0], [4.0, 5.0, 6.0], [7.0, 8.0, 9.0]]
+        );
+        assert_eq!(c.colors, Some(vec![[255, 0, 0], [0, 255, 0], [0, 0, 255]]));
+        assert_eq!(c.invalid, 1);
+    }
+
+    #[test]
+    fn compressed_sizes_that_lie_are_errors_before_any_allocation() {
+        let head = "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 1000000000\nHEIGHT 4\n\
+                    DATA binary_compressed\n";
+        let mut data = head.as_bytes().to_vec();
+        data.extend(16u32.to_le_bytes());
+        data.extend(u32::MAX.to_le_bytes());
+        data.extend([0u8; 16]);
+        let e = parse_cloud(&data).unwrap_err().to_string();
+        assert!(e.contains("decompresses to 4294967295 bytes"), "{e}");
+        let e = parse_cloud(&data[..head.len() + 3])
             .unwrap_err()
             .to_string();
-        assert!(
-            e.contains("line 11: not supported: DATA binary_compressed"),
-            "{e}"
+        assert!(e.contains("two 4-byte sizes"), "{e}");
+    }
+
+    #[test]
+    fn a_huge_count_is_an_error_not_an_overflow() {
+        let e = parse_cloud(
+            b"FIELDS x y z h\nSIZE 4 4 4 8\nTYPE F F F F\nCOUNT 1 1 1 4611686018427387904\n\
+              POINTS 1\nDATA binary\n",
+        )
+        .unwrap_err()
+        .to_string();
+        assert_eq!(
+            e,
+            "line 4: field 'h': COUNT 4611686018427387904 makes a point too large"
         );
     }
 

@@ -316,8 +316,16 @@ fn walk(
     }
 }
 
+/// Slots a row needs: one past the highest.
 fn n_slots(roles: &[Role]) -> usize {
-    roles.iter().filter(|r| matches!(r, Role::Slot(_))).count()
+    roles
+        .iter()
+        .filter_map(|r| match r {
+            Role::Slot(k) => Some(k + 1),
+            _ => None,
+        })
+        .max()
+        .unwrap_or(0)
 }
 
 fn walk_binary(
@@ -552,14 +560,44 @@ fn walk_ascii(
     Ok(())
 }
 
-/// The vertex element, its `x y z` slots and whether it has `nx ny nz`.
+/// The vertex element, its `x y z` slots (0-2), whether it has `nx ny nz` (slots
+/// 3-5) and the types of its colour, when it has `red green blue` (slots 6-8).
 struct VertexPlan {
     element: usize,
     roles: Vec<Role>,
     normals: bool,
+    colors: Option<[Scalar; 3]>,
 }
 
-fn vertex_plan(h: &Header, want_normals: bool) -> Result<VertexPlan> {
+/// Names of a vertex colour, the first set found wins.
+const COLOR_NAMES: [[&str; 3]; 3] = [
+    ["red", "green", "blue"],
+    ["r", "g", "b"],
+    ["diffuse_red", "diffuse_green", "diffuse_blue"],
+];
+
+/// A colour channel of type `ty` as 8 bits: 8-bit integers as they are, wider ones
+/// scaled from their full range (16 bits: 65535 is 255), floats from 0-1; out of
+/// range values are clamped.
+fn channel(ty: Scalar, v: f64) -> u8 {
+    let full = match ty {
+        Scalar::I8 | Scalar::U8 => 255.0,
+        Scalar::I16 | Scalar::U16 => 65535.0,
+        Scalar::I32 | Scalar::U32 | Scalar::I64 | Scalar::U64 => 4_294_967_295.0,
+        Scalar::F32 | Scalar::F64 => 1.0,
+    };
+    let c = (v / full * 255.0).round();
+    if c >= 255.0 {
+        255
+    } else if c > 0.0 {
+        c as u8
+    } else {
+        0
+    }
+}
+
+/// The plan of the vertex element; a cloud (`cloud`) also takes normals and colours.
+fn vertex_plan(h: &Header, cloud: bool) -> Result<VertexPlan> {
     let element = h
         .elements
         .iter()
@@ -590,11 +628,28 @@ fn vertex_plan(h: &Header, want_normals: bool) -> Result<VertexPlan> {
         Ok(true)
     };
     assign(["x", "y", "z"], 0, true)?;
-    let normals = want_normals && assign(["nx", "ny", "nz"], 3, false)?;
+    let normals = cloud && assign(["nx", "ny", "nz"], 3, false)?;
+    let mut colors = None;
+    if cloud {
+        // A colour is all three channels or none: a lone `red` is an extra property.
+        for names in COLOR_NAMES {
+            if names.iter().all(|n| el.prop(n).is_some()) && assign(names, 6, false)? {
+                // `assign` checked that each is a scalar.
+                colors = Some(
+                    names.map(|name| match el.prop(name).map(|i| el.props[i].kind) {
+                        Some(Kind::Scalar(t)) => t,
+                        _ => Scalar::U8,
+                    }),
+                );
+                break;
+            }
+        }
+    }
     Ok(VertexPlan {
         element,
         roles,
         normals,
+        colors,
     })
 }
 
@@ -602,7 +657,8 @@ fn body_len(data: &[u8], h: &Header) -> usize {
     data.len() - h.body
 }
 
-/// Parses a PLY point cloud: `x y z` and, if present, `nx ny nz` of element `vertex`.
+/// Parses a PLY point cloud: `x y z` and, if present, `nx ny nz` and
+/// `red green blue` (or `r g b`, `diffuse_red ..`) of element `vertex`.
 pub fn parse_cloud(data: &[u8]) -> Result<Cloud> {
     let h = parse_header(data)?;
     let plan = vertex_plan(&h, true)?;
@@ -620,6 +676,7 @@ pub fn parse_cloud(data: &[u8]) -> Result<Cloud> {
     let cap = safe_capacity(el.count, body_len(data, &h), min_row);
     let mut positions = Vec::with_capacity(cap);
     let mut normals = Vec::with_capacity(if plan.normals { cap } else { 0 });
+    let mut colors = Vec::with_capacity(if plan.colors.is_some() { cap } else { 0 });
     let mut roles: Vec<Vec<Role>> = h
         .elements
         .iter()
@@ -633,11 +690,16 @@ pub fn parse_cloud(data: &[u8]) -> Result<Cloud> {
         if plan.normals {
             normals.push([row.slots[3], row.slots[4], row.slots[5]]);
         }
+        if let Some(types) = plan.colors {
+            colors.push([0, 1, 2].map(|k| channel(types[k], row.slots[6 + k])));
+        }
         Ok(())
     })?;
     Ok(Cloud {
         positions,
         normals: plan.normals.then_some(normals),
+        colors: plan.colors.map(|_| colors),
+        invalid: 0,
     })
 }
 
