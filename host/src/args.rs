@@ -47,7 +47,7 @@ pub fn read_input(args: &InputArgs, clock: &mut StageClock) -> Result<Prepared, 
             args.sample,
             args.points,
             args.noise,
-            1,
+            input::SAMPLE_SEED,
         )?;
         Ok(input::prepare(name, cloud))
     })

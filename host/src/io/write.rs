@@ -1,5 +1,5 @@
 //! Writing results: atomic replacement of the target file, labelled points as binary
-//! PLY, meshes as binary PLY, OBJ or OFF, and reports ([`publish`]).
+//! PLY, and meshes as binary PLY, OBJ or OFF.
 //!
 //! [`write_atomic`] writes a hidden temporary file beside the target, syncs it and renames
 //! it over the target, so the target is either the old file or the complete new one.
@@ -115,21 +115,6 @@ pub fn write_atomic(
     Ok(())
 }
 
-/// Prints a report's `text` to stdout and, when `json_path` is given, writes `json()`
-/// there with [`write_atomic`] (the JSON is only made when it is asked for).
-pub fn publish(
-    text: &str,
-    json_path: Option<&Path>,
-    json: impl FnOnce() -> String,
-) -> Result<(), WriteError> {
-    print!("{text}");
-    let Some(path) = json_path else {
-        return Ok(());
-    };
-    let body = json();
-    write_atomic(path, |w| w.write_all(body.as_bytes()))
-}
-
 fn invalid(msg: String) -> io::Error {
     io::Error::new(io::ErrorKind::InvalidInput, msg)
 }
@@ -204,6 +189,15 @@ pub enum MeshFormat {
 }
 
 impl MeshFormat {
+    /// The position `p` as [`write_mesh`] stores it in this format: PLY's
+    /// `float` rounds each coordinate to `f32`; OBJ and OFF keep the `f64`.
+    pub fn stored(self, p: [f64; 3]) -> [f64; 3] {
+        match self {
+            MeshFormat::Ply => p.map(|c| c as f32 as f64),
+            MeshFormat::Obj | MeshFormat::Off => p,
+        }
+    }
+
     /// The format named by the extension of `path` (case-insensitive).
     pub fn from_path(path: &Path) -> Result<MeshFormat, String> {
         let ext = path
