@@ -7,10 +7,11 @@ use clap::Args;
 use std::mem::MaybeUninit;
 use std::path::PathBuf;
 use vsaqem_core::sample::Shape;
-use vsaqem_core::Params;
+use vsaqem_core::{Params, MAX_K};
 
 /// Where the points come from.
 #[derive(Args, Debug, Clone)]
+#[command(next_help_heading = "Input")]
 pub struct InputArgs {
     /// Point cloud to read (.ply, .xyz/.xyzn/.txt/.pts, .pcd; normals used when
     /// present). Without it, a built-in generated sample is used.
@@ -56,6 +57,7 @@ pub fn read_input(args: &InputArgs, clock: &mut StageClock) -> Result<Prepared, 
 /// The cleaning pre-pass (`vsaqem_core::clean`); defaults are
 /// `vsaqem_core::Params::default()`.
 #[derive(Args, Debug, Clone)]
+#[command(next_help_heading = "Cleaning")]
 pub struct CleanArgs {
     /// Remove statistical outliers: points whose mean distance to their --knn
     /// nearest neighbours is more than SIGMA standard deviations above the mean
@@ -112,6 +114,7 @@ impl CleanArgs {
 
 /// Clustering parameters; defaults are `vsaqem_core::Params::default()`.
 #[derive(Args, Debug, Clone)]
+#[command(next_help_heading = "Clustering")]
 pub struct ClusterArgs {
     /// Initial number of clusters (generators); the output has about this many
     /// vertices, more where splitting adds some.
@@ -138,11 +141,24 @@ pub struct ClusterArgs {
     #[arg(long, default_value_t = Params::default().lambda)]
     pub lambda: f32,
     /// Neighbours per point (1 to 32).
-    #[arg(long, default_value_t = Params::default().k)]
+    #[arg(long, value_name = "K", default_value_t = Params::default().k, value_parser = parse_knn)]
     pub knn: usize,
     /// Seed of the generator initialisation (same seed, same output).
     #[arg(long, default_value_t = Params::default().seed)]
     pub seed: u64,
+}
+
+/// `--knn`: 1 to [`MAX_K`], the most core's neighbour search holds.
+fn parse_knn(s: &str) -> Result<usize, String> {
+    match s.trim().parse::<usize>() {
+        Ok(k) if (1..=MAX_K).contains(&k) => Ok(k),
+        Ok(k) if k > MAX_K => Err(format!(
+            "{k} neighbours is more than the limit of {MAX_K} (--knn takes 1 to {MAX_K})"
+        )),
+        _ => Err(format!(
+            "'{s}' is not a number of neighbours from 1 to {MAX_K}"
+        )),
+    }
 }
 
 impl ClusterArgs {
@@ -165,6 +181,7 @@ impl ClusterArgs {
 
 /// The arena budget of a run.
 #[derive(Args, Debug, Clone)]
+#[command(next_help_heading = "Run")]
 pub struct MemoryArgs {
     /// Arena size in bytes (suffixes KiB, MiB, GiB; e.g. 64MiB, 1.5GiB, 200000).
     /// Default: the most this run can need, as core bounds it for these points

@@ -3,6 +3,7 @@
 
 pub mod args;
 pub mod clean;
+pub mod cli;
 pub mod cmd;
 pub mod eval;
 pub mod geom;
