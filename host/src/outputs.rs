@@ -157,12 +157,15 @@ mod tests {
         }
         let e = check_outputs(Some(&input), &d.join("mesh.ply"), Some(&dotted)).unwrap_err();
         assert!(e.contains("--report names the input file"), "{e}");
-        let e = check_outputs(None, &d.join("mesh.ply"), Some(&d.join("sub/../mesh.ply")))
-            .unwrap_err();
+        let e =
+            check_outputs(None, &d.join("mesh.ply"), Some(&d.join("sub/../mesh.ply"))).unwrap_err();
         assert!(e.contains("--report names the same file as -o"), "{e}");
         check_outputs(Some(&input), &d.join("mesh.ply"), Some(&d.join("r.json"))).unwrap();
         // The probe is gone.
-        let mut left: Vec<_> = fs::read_dir(&d).unwrap().map(|e| e.unwrap().file_name()).collect();
+        let mut left: Vec<_> = fs::read_dir(&d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
         left.sort();
         assert_eq!(left, ["cloud.ply", "link.ply", "sub"]);
     }

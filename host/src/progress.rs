@@ -189,7 +189,6 @@ impl Timings {
         parts.push(format!("total {:.1} ms", ms(self.total)));
         parts.join(", ")
     }
-
 }
 
 /// The stage times in milliseconds (to the microsecond) as one JSON object, in

@@ -767,12 +767,25 @@ mod tests {
 
     #[test]
     fn a_closed_tetrahedron_checks_as_a_valid_solid_and_an_open_one_does_not() {
-        let v = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        let v = [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 1.0],
+        ];
         let closed = [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]];
         let c = MeshCheck::new(&v, &closed);
-        assert!(c.watertight && c.manifold && c.oriented && c.valid_solid, "{c:?}");
-        assert_eq!((c.topology.euler, c.validity.genus.as_slice()), (2, &[0][..]));
-        assert!(c.text().starts_with("check      valid solid: yes (watertight"));
+        assert!(
+            c.watertight && c.manifold && c.oriented && c.valid_solid,
+            "{c:?}"
+        );
+        assert_eq!(
+            (c.topology.euler, c.validity.genus.as_slice()),
+            (2, &[0][..])
+        );
+        assert!(c
+            .text()
+            .starts_with("check      valid solid: yes (watertight"));
         let open = MeshCheck::new(&v, &closed[..3]);
         assert!(!open.watertight && open.manifold && !open.valid_solid);
         assert_eq!(open.topology.boundary_edges, 3);

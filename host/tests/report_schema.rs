@@ -120,10 +120,7 @@ fn errors(root: &Value, schema: &Value, value: &Value, at: &str) -> Vec<String> 
                     .collect();
                 let valid = branches.iter().filter(|e| e.is_empty()).count();
                 if valid != 1 {
-                    fail!(
-                        "{valid} of oneOf's {} match: {branches:?}",
-                        branches.len()
-                    );
+                    fail!("{valid} of oneOf's {} match: {branches:?}", branches.len());
                 }
             }
             other => panic!("{at}: the checker does not know the keyword {other}"),
@@ -165,7 +162,10 @@ fn reports_of_cluster_and_reconstruct_match_the_schema() {
     let cloud = d.join("cloud.xyz");
     let text: String = (0..3000)
         .map(|i| {
-            let (t, p) = (i as f64 * 0.618_034 * 6.283_185, (i as f64 + 0.5) / 3000.0);
+            let (t, p) = (
+                i as f64 * 0.618_034 * std::f64::consts::TAU,
+                (i as f64 + 0.5) / 3000.0,
+            );
             let z = 1.0 - 2.0 * p;
             let r = (1.0 - z * z).sqrt();
             format!("{} {} {}\n", r * t.cos(), r * t.sin(), z)
@@ -179,14 +179,31 @@ fn reports_of_cluster_and_reconstruct_match_the_schema() {
         (
             "reconstruct",
             vec![
-                "--sample", "hemisphere", "--points", "3000", "--clusters", "60",
-                "--max-error", "0.01", "--min-fragment", "0", "--outliers", "2",
-                "--threads", "1", "--memory", "64MiB",
+                "--sample",
+                "hemisphere",
+                "--points",
+                "3000",
+                "--clusters",
+                "60",
+                "--max-error",
+                "0.01",
+                "--min-fragment",
+                "0",
+                "--outliers",
+                "2",
+                "--threads",
+                "1",
+                "--memory",
+                "64MiB",
             ],
             "bounded.off",
         ),
         ("cluster", SMALL.to_vec(), "clusters.ply"),
-        ("cluster", vec![cloud, "--clusters", "50", "--smooth", "1"], "file_clusters.ply"),
+        (
+            "cluster",
+            vec![cloud, "--clusters", "50", "--smooth", "1"],
+            "file_clusters.ply",
+        ),
     ];
     for (command, args, out) in runs {
         let r = report(&d, command, &args, out);
@@ -201,15 +218,37 @@ fn the_checker_rejects_a_report_that_breaks_the_schema() {
     let d = dir("broken");
     let good = report(&d, "reconstruct", &SMALL, "mesh.ply");
     assert!(validate(&good).is_empty());
-    let broken: Vec<(&str, Box<dyn Fn(&mut Value)>)> = vec![
-        ("a field missing", Box::new(|r| drop(r.as_object_mut().unwrap().remove("points")))),
-        ("a field unknown", Box::new(|r| r["mesh"]["volume"] = 1.into())),
+    type Change = Box<dyn Fn(&mut Value)>;
+    let broken: Vec<(&str, Change)> = vec![
+        (
+            "a field missing",
+            Box::new(|r| drop(r.as_object_mut().unwrap().remove("points"))),
+        ),
+        (
+            "a field unknown",
+            Box::new(|r| r["mesh"]["volume"] = 1.into()),
+        ),
         ("a count negative", Box::new(|r| r["faces"] = (-1).into())),
-        ("a wrong type", Box::new(|r| r["mesh"]["valid_solid"] = "yes".into())),
-        ("another version", Box::new(|r| r["schema_version"] = 2.into())),
-        ("an unknown stage", Box::new(|r| r["time_ms"]["dreaming"] = 1.0.into())),
-        ("an unknown sample", Box::new(|r| r["input"]["name"] = "teapot".into())),
-        ("meshing in cluster", Box::new(|r| r["command"] = "cluster".into())),
+        (
+            "a wrong type",
+            Box::new(|r| r["mesh"]["valid_solid"] = "yes".into()),
+        ),
+        (
+            "another version",
+            Box::new(|r| r["schema_version"] = 2.into()),
+        ),
+        (
+            "an unknown stage",
+            Box::new(|r| r["time_ms"]["dreaming"] = 1.0.into()),
+        ),
+        (
+            "an unknown sample",
+            Box::new(|r| r["input"]["name"] = "teapot".into()),
+        ),
+        (
+            "meshing in cluster",
+            Box::new(|r| r["command"] = "cluster".into()),
+        ),
     ];
     for (what, change) in broken {
         let mut r = good.clone();

@@ -42,7 +42,11 @@ pub struct Cmd {
 
 /// Run the command.
 pub fn run(cmd: &Cmd) -> Result<(), String> {
-    check_outputs(cmd.input.input.as_deref(), &cmd.output, cmd.report.as_deref())?;
+    check_outputs(
+        cmd.input.input.as_deref(),
+        &cmd.output,
+        cmd.report.as_deref(),
+    )?;
     let mut clock = StageClock::new(!cmd.quiet).with_threads(cmd.memory.threads());
     let params = cmd.clean.apply(cmd.cluster.params());
     let bytes = RunBytes {
@@ -117,7 +121,9 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
             c.max_error_relative * 100.0
         );
     }
-    publish(&report.text(), cmd.report.as_deref(), || report_json(&report))
+    publish(&report.text(), cmd.report.as_deref(), || {
+        report_json(&report)
+    })
 }
 
 fn write_clusters(path: &Path, input: &Prepared, out: &Clustered) -> Result<(), String> {
@@ -211,5 +217,4 @@ impl ClusterReport {
             self.run.text(self.input.points, &output),
         )
     }
-
 }

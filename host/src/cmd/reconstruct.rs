@@ -129,7 +129,11 @@ impl Cmd {
 /// Run the command.
 pub fn run(cmd: &Cmd) -> Result<(), String> {
     let format = MeshFormat::from_path(&cmd.output)?;
-    check_outputs(cmd.input.input.as_deref(), &cmd.output, cmd.report.as_deref())?;
+    check_outputs(
+        cmd.input.input.as_deref(),
+        &cmd.output,
+        cmd.report.as_deref(),
+    )?;
     let mut clock = StageClock::new(!cmd.quiet).with_threads(cmd.memory.threads());
     let params = cmd.params();
     let bytes = RunBytes {
@@ -180,10 +184,8 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
     let triangles = out.mesh.triangles;
     let check = clock.time("check", || MeshCheck::new(&vertices, triangles));
     clock.time("write", || {
-        write_atomic(&cmd.output, |w| {
-            write_mesh(w, format, &vertices, triangles)
-        })
-        .map_err(|e| e.to_string())
+        write_atomic(&cmd.output, |w| write_mesh(w, format, &vertices, triangles))
+            .map_err(|e| e.to_string())
     })?;
     let diag = out.clustered.bounds.diag;
     let cs = &out.clustered.stats;
@@ -244,7 +246,9 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
             report.max_error_stop(),
         );
     }
-    publish(&report.text(), cmd.report.as_deref(), || report_json(&report))
+    publish(&report.text(), cmd.report.as_deref(), || {
+        report_json(&report)
+    })
 }
 
 /// The report of a run, filled once from its results: its JSON is this struct
