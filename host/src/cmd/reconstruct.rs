@@ -449,9 +449,12 @@ impl ReconstructReport {
                 m.solver_nodes
             )
         };
-        let closed = if m.boundary_edges == 0 && m.uncovered_clusters == 0 {
+        // The mesh as written (core's counts can miss what densifying did
+        // at the boundary).
+        let t = &self.mesh.topology;
+        let closed = if t.boundary_edges == 0 && m.uncovered_clusters == 0 {
             "watertight".to_string()
-        } else if m.boundary_edges == 0 {
+        } else if t.boundary_edges == 0 {
             format!(
                 "closed, but {} clusters ({} points) are not covered",
                 m.uncovered_clusters, m.uncovered_points
@@ -459,7 +462,7 @@ impl ReconstructReport {
         } else {
             format!(
                 "{} boundary edges, {} uncovered clusters ({} points)",
-                m.boundary_edges, m.uncovered_clusters, m.uncovered_points
+                t.boundary_edges, m.uncovered_clusters, m.uncovered_points
             )
         };
         format!(
@@ -496,9 +499,9 @@ impl ReconstructReport {
             m.solver_components,
             m.solver_largest_component,
             m.solver_forced,
-            m.vertices,
-            m.faces,
-            m.components,
+            t.vertices,
+            t.faces,
+            t.components,
             m.inserted_clusters,
             self.fit_text(),
             self.distance_text(),

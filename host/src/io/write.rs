@@ -321,6 +321,32 @@ mod tests {
     }
 
     #[test]
+    fn a_written_mesh_reads_back_at_the_positions_stored_says() {
+        // Coordinates that f32 cannot hold: PLY rounds them, OBJ and OFF not.
+        let v = [
+            [0.1, 1e7 + 0.3, -2.0 / 3.0],
+            [1.0 / 3.0, 2.0, 3.0],
+            [4.0, 5.000_000_1, 6.0],
+        ];
+        let t = [[0, 1, 2]];
+        for (fmt, parse) in [
+            (
+                MeshFormat::Ply,
+                crate::io::ply::parse_mesh as fn(&[u8]) -> _,
+            ),
+            (MeshFormat::Obj, crate::io::obj::parse_mesh),
+            (MeshFormat::Off, crate::io::off::parse_mesh),
+        ] {
+            let mut out = Vec::new();
+            write_mesh(&mut out, fmt, &v, &t).unwrap();
+            let (read, _) = parse(&out).unwrap();
+            let stored: Vec<[f64; 3]> = v.iter().map(|&p| fmt.stored(p)).collect();
+            assert_eq!(read, stored, "{fmt:?}");
+        }
+        assert_ne!(MeshFormat::Ply.stored(v[0]), v[0]);
+    }
+
+    #[test]
     fn mismatched_lengths_and_bad_indices_are_invalid_input() {
         let mut out = Vec::new();
         let e = write_points_ply(&mut out, &[[0.0; 3]], &[[0; 3]; 2], None).unwrap_err();
