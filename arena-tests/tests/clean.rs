@@ -92,6 +92,14 @@ fn clean_bytes_is_enough_and_at_most_about_twice_the_peak() {
             }
         }
     }
+}
+
+#[test]
+#[cfg_attr(
+    not(shared_data),
+    ignore = "needs ../shared/data/clouds, not found when this crate was built"
+)]
+fn clean_bytes_is_enough_and_at_most_about_twice_the_peak_on_the_shared_clouds() {
     let Some(paths) = shared_clouds() else { return };
     for path in paths {
         let points = load_shared_cloud(&path);

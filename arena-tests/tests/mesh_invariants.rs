@@ -125,6 +125,10 @@ fn a_box_keeps_its_corners_and_edges() {
 }
 
 #[test]
+#[cfg_attr(
+    not(shared_data),
+    ignore = "needs ../shared/data/clouds, not found when this crate was built"
+)]
 fn shared_clouds_give_clean_manifolds() {
     let Some(files) = shared_clouds() else { return };
     for path in files {

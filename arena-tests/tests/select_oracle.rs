@@ -729,6 +729,10 @@ fn piece(p: &SelectionProblem<'_>, seed: usize, size: usize) -> Instance {
 /// objective is the MIP's optimum; otherwise its upper bound is not below it.
 /// Skipped when `../shared` is absent.
 #[test]
+#[cfg_attr(
+    not(shared_data),
+    ignore = "needs ../shared/data/clouds, not found when this crate was built"
+)]
 fn bnb_matches_the_mip_on_pieces_of_the_shared_clouds() {
     let Some(files) = shared_clouds() else { return };
     let params = Params {

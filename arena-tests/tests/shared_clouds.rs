@@ -79,7 +79,14 @@ fn summary(e: &Evaluation) -> String {
 }
 
 #[test]
-#[ignore = "60 reconstructions of the shared clouds: run in release (CI does)"]
+#[cfg_attr(
+    shared_data,
+    ignore = "60 reconstructions of the shared clouds: run in release (CI does)"
+)]
+#[cfg_attr(
+    not(shared_data),
+    ignore = "needs ../shared/data/clouds, not found when this crate was built"
+)]
 fn shared_clouds_give_valid_meshes_at_every_cluster_count() {
     let Some(files) = shared_clouds() else { return };
     let mut failures = Vec::new();
@@ -136,7 +143,14 @@ fn shared_clouds_give_valid_meshes_at_every_cluster_count() {
 }
 
 #[test]
-#[ignore = "20 reconstructions of the shared clouds under an error bound: run in release (CI does)"]
+#[cfg_attr(
+    shared_data,
+    ignore = "20 reconstructions of the shared clouds under an error bound: run in release (CI does)"
+)]
+#[cfg_attr(
+    not(shared_data),
+    ignore = "needs ../shared/data/clouds, not found when this crate was built"
+)]
 fn an_error_bound_is_met_on_the_shared_clouds_as_an_independent_evaluation_measures_it() {
     let Some(files) = shared_clouds() else { return };
     let mut failures = Vec::new();

@@ -9,10 +9,11 @@ use clap::{Args, ValueEnum};
 use std::mem::MaybeUninit;
 use std::path::PathBuf;
 use vsaqem_core::sample::Shape;
-use vsaqem_core::{Params, Partition};
+use vsaqem_core::{Params, Partition, MAX_K};
 
 /// Where the points come from.
 #[derive(Args, Debug, Clone)]
+#[command(next_help_heading = "Input")]
 pub struct InputArgs {
     /// Point cloud to read: .ply, .xyz/.xyzn/.txt/.pts/.csv (text), .pcd, .las/.laz,
     /// .e57, or a mesh (.obj, .off, .stl; a PLY mesh too) whose vertices are the
@@ -80,7 +81,7 @@ pub fn read_input(args: &InputArgs, clock: &mut StageClock) -> Result<Prepared, 
             args.sample,
             args.points,
             args.noise,
-            1,
+            input::SAMPLE_SEED,
         )?;
         if args.normals == NormalsMode::Ignore {
             cloud.normals = None;
@@ -92,6 +93,7 @@ pub fn read_input(args: &InputArgs, clock: &mut StageClock) -> Result<Prepared, 
 /// The cleaning pre-pass (`vsaqem_core::clean`); defaults are
 /// `vsaqem_core::Params::default()`.
 #[derive(Args, Debug, Clone)]
+#[command(next_help_heading = "Cleaning")]
 pub struct CleanArgs {
     /// Remove statistical outliers: points whose mean distance to their --knn
     /// nearest neighbours is more than SIGMA standard deviations above the mean
@@ -148,6 +150,7 @@ impl CleanArgs {
 
 /// Clustering parameters; defaults are `vsaqem_core::Params::default()`.
 #[derive(Args, Debug, Clone)]
+#[command(next_help_heading = "Clustering")]
 pub struct ClusterArgs {
     /// Initial number of clusters (generators); the output has about this many
     /// vertices, more where splitting adds some.
@@ -174,7 +177,7 @@ pub struct ClusterArgs {
     #[arg(long, default_value_t = Params::default().lambda)]
     pub lambda: f32,
     /// Neighbours per point (1 to 32).
-    #[arg(long, default_value_t = Params::default().k)]
+    #[arg(long, value_name = "K", default_value_t = Params::default().k, value_parser = parse_knn)]
     pub knn: usize,
     /// Seed of the generator initialisation (same seed, same output).
     #[arg(long, default_value_t = Params::default().seed)]
@@ -208,6 +211,19 @@ impl From<PartitionArg> for Partition {
     }
 }
 
+/// `--knn`: 1 to [`MAX_K`], the most core's neighbour search holds.
+fn parse_knn(s: &str) -> Result<usize, String> {
+    match s.trim().parse::<usize>() {
+        Ok(k) if (1..=MAX_K).contains(&k) => Ok(k),
+        Ok(k) if k > MAX_K => Err(format!(
+            "{k} neighbours is more than the limit of {MAX_K} (--knn takes 1 to {MAX_K})"
+        )),
+        _ => Err(format!(
+            "'{s}' is not a number of neighbours from 1 to {MAX_K}"
+        )),
+    }
+}
+
 impl ClusterArgs {
     /// The core parameters.
     pub fn params(&self) -> Params {
@@ -229,6 +245,7 @@ impl ClusterArgs {
 
 /// The arena budget of a run.
 #[derive(Args, Debug, Clone)]
+#[command(next_help_heading = "Run")]
 pub struct MemoryArgs {
     /// Arena size in bytes (suffixes KiB, MiB, GiB; e.g. 64MiB, 1.5GiB, 200000).
     /// Default: the most this run can need, as core bounds it for these points

@@ -64,6 +64,11 @@ pub fn read_and_clean(
 ) -> Result<Cleaned, String> {
     let input = read_input(input, clock)?;
     let n = input.points.len();
+    // What core would refuse first (too few points, all in a plane, ...),
+    // then a cluster count that no memory could serve.
+    vsaqem_core::validate::check(&input.points, input.normals.as_deref(), params)
+        .map_err(|e| format!("{}: {e}", input.name))?;
+    more_points_than_clusters(&input, params, "")?;
     let needed = with_clean((run.most)(n, params), n, params, false);
     // The run takes cleaning's table (no search of its own) unless cleaning
     // is off or drops points, or smoothing moves them.
@@ -72,6 +77,7 @@ pub fn read_and_clean(
     let mut buf = arena_buffer(memory.arena_size(needed, least, n)?);
     let (input, stats, rows) =
         clean_input(input, params, &mut buf, clock).inspect_err(|_| clock.finish())?;
+    more_points_than_clusters(&input, params, " left after cleaning")?;
     Ok(Cleaned {
         input,
         points_read: n,
@@ -79,6 +85,20 @@ pub fn read_and_clean(
         buf,
         rows,
     })
+}
+
+/// An error naming both numbers when `--clusters` asks for more clusters than
+/// `input` has points (`which` says which points they are): checked before
+/// the arena is sized, so no memory error stands in for it.
+fn more_points_than_clusters(input: &Prepared, params: &Params, which: &str) -> Result<(), String> {
+    let n = input.points.len();
+    if params.clusters as usize > n {
+        return Err(format!(
+            "{}: more clusters than points{which} ({} > {n}): give --clusters at most {n}",
+            input.name, params.clusters
+        ));
+    }
+    Ok(())
 }
 
 impl RunBytes {

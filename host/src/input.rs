@@ -3,6 +3,8 @@
 use crate::io::{read_cloud_with, Cloud, ReadOptions};
 use crate::normalize::Frame;
 use crate::progress::StageClock;
+use serde::Serialize;
+use std::fmt;
 use std::path::Path;
 use vsaqem_core::rng::Rng;
 use vsaqem_core::sample::{fill, gaussian, Shape};
@@ -87,16 +89,73 @@ pub fn load(
             Ok((p.display().to_string(), cloud))
         }
         None => {
-            let name = if noise > 0.0 {
-                format!(
-                    "built-in sample '{}' ({points} points, noise {}% of the diagonal)",
-                    shape_name(shape),
-                    noise * 100.0
-                )
-            } else {
-                format!("built-in sample '{}' ({points} points)", shape_name(shape))
-            };
+            let name = Source::of(None, shape, points, noise, seed).to_string();
             Ok((name, sample(shape, points, noise, seed)))
+        }
+    }
+}
+
+/// The seed of the built-in samples' points and noise.
+pub const SAMPLE_SEED: u64 = 1;
+
+/// Where the points of a run come from, as the report names them: a file, or
+/// a built-in sample with what makes it. `Display` is the name errors and the
+/// text report use (the path, or `built-in sample 'demo' (20000 points)`).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Source {
+    /// A file, as named on the command line.
+    File {
+        /// The path as given.
+        path: String,
+    },
+    /// A built-in generated sample ([`sample`]).
+    Sample {
+        /// The shape's name ([`shape_name`]).
+        name: &'static str,
+        /// Points generated.
+        points: usize,
+        /// Gaussian noise, fraction of the bounding-box diagonal.
+        noise: f64,
+        /// Seed of the points and the noise.
+        seed: u64,
+    },
+}
+
+impl Source {
+    /// The source [`load`] reads: `path`, or the sample it makes without one.
+    pub fn of(path: Option<&Path>, shape: Shape, points: usize, noise: f64, seed: u64) -> Source {
+        match path {
+            Some(p) => Source::File {
+                path: p.display().to_string(),
+            },
+            None => Source::Sample {
+                name: shape_name(shape),
+                points,
+                noise,
+                seed,
+            },
+        }
+    }
+}
+
+impl fmt::Display for Source {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Source::File { path } => f.write_str(path),
+            Source::Sample {
+                name,
+                points,
+                noise,
+                ..
+            } if *noise > 0.0 => write!(
+                f,
+                "built-in sample '{name}' ({points} points, noise {}% of the diagonal)",
+                noise * 100.0
+            ),
+            Source::Sample { name, points, .. } => {
+                write!(f, "built-in sample '{name}' ({points} points)")
+            }
         }
     }
 }

@@ -3,13 +3,15 @@
 
 pub mod args;
 pub mod clean;
+pub mod cli;
 pub mod cmd;
 pub mod eval;
 pub mod geom;
 pub mod input;
 pub mod io;
-pub mod json;
 pub mod normalize;
+pub mod outputs;
 pub mod progress;
 pub mod render;
 pub mod report;
+pub mod stdout;

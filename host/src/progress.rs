@@ -1,6 +1,8 @@
 //! Time per stage and a progress bar on stderr (only when stderr is a terminal),
 //! and the threads core's parallel stages run on.
 
+use serde::ser::{SerializeMap, Serializer};
+use serde::Serialize;
 use std::io::{IsTerminal, Write};
 use std::time::{Duration, Instant};
 use vsaqem_core::{Flow, Progress, Stage, Task};
@@ -183,15 +185,19 @@ impl Timings {
         parts.push(format!("total {:.1} ms", ms(self.total)));
         parts.join(", ")
     }
+}
 
-    /// The stage times in milliseconds as a nested JSON object, with `total`.
-    pub fn json(&self) -> String {
-        let mut o = crate::json::Obj::default();
+/// The stage times in milliseconds (to the microsecond) as one JSON object, in
+/// the order the stages ran, then `total`.
+impl Serialize for Timings {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let us = |d: Duration| (ms(d) * 1e3).round() / 1e3;
+        let mut map = s.serialize_map(Some(self.stages.len() + 1))?;
         for (k, d) in &self.stages {
-            o.num(k, ms(*d));
+            map.serialize_entry(k, &us(*d))?;
         }
-        o.num("total", ms(self.total));
-        o.nested()
+        map.serialize_entry("total", &us(self.total))?;
+        map.end()
     }
 }
 

@@ -141,7 +141,7 @@ fn cleaning_that_leaves_too_few_points_is_a_clear_error() {
     std::fs::write(&input, text).unwrap();
     let out = d.join("mesh.ply");
     let r = bin()
-        .args(["reconstruct", "-q", "--knn", "2"])
+        .args(["reconstruct", "-q", "--knn", "2", "--clusters", "20"])
         .arg(&input)
         .arg("-o")
         .arg(&out)

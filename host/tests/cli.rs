@@ -216,3 +216,305 @@ fn a_run_that_reaches_the_cluster_cap_with_the_tolerance_unmet_says_so() {
     assert!(!stderr.contains("warning"), "{stderr}");
     assert!(j.contains("\"tolerance_met\": true"), "{j}");
 }
+
+#[test]
+fn options_stand_under_their_headings_in_the_order_of_a_run() {
+    use clap::CommandFactory;
+    let cli = vsaqem::cli::Cli::command();
+    for (name, headings) in [
+        (
+            "reconstruct",
+            &[
+                "Input",
+                "Cleaning",
+                "Clustering",
+                "Meshing",
+                "Output",
+                "Run",
+            ][..],
+        ),
+        (
+            "cluster",
+            &["Input", "Cleaning", "Clustering", "Output", "Run"][..],
+        ),
+    ] {
+        let sub = cli.find_subcommand(name).unwrap();
+        let mut seen: Vec<&str> = Vec::new();
+        for arg in sub.get_arguments() {
+            if arg.get_id() == "help" {
+                continue;
+            }
+            let h = arg
+                .get_help_heading()
+                .unwrap_or_else(|| panic!("{name} --{} has no heading", arg.get_id()));
+            if seen.last() != Some(&h) {
+                seen.push(h);
+            }
+        }
+        assert_eq!(seen, headings, "{name}");
+        let of = |id: &str| {
+            sub.get_arguments()
+                .find(|a| a.get_id() == id)
+                .and_then(|a| a.get_help_heading())
+        };
+        assert_eq!(of("knn"), Some("Clustering"));
+        assert_eq!(of("output"), Some("Output"));
+        assert_eq!(of("memory"), Some("Run"));
+        assert_eq!(of("outlier_sigma"), Some("Cleaning"));
+        assert_eq!(of("input"), Some("Input"));
+    }
+}
+
+/// `vsaqem ARGS`: exit code, stdout and stderr.
+fn run(args: &[&std::ffi::OsStr]) -> (Option<i32>, String, String) {
+    let r = bin().args(args).output().unwrap();
+    (
+        r.status.code(),
+        String::from_utf8_lossy(&r.stdout).into_owned(),
+        String::from_utf8_lossy(&r.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn an_output_that_is_the_input_is_refused_and_the_input_kept() {
+    let d = dir("same_as_input");
+    let points: Vec<[f64; 3]> = (0..400)
+        .map(|i| {
+            let (a, b) = (i as f64 * 0.7, i as f64 * 1.3);
+            [a.cos() * b.sin(), a.sin() * b.sin(), b.cos()]
+        })
+        .collect();
+    let input = write(&d, "cloud.xyz", &xyz(&points));
+    let before = std::fs::read(&input).unwrap();
+    std::fs::create_dir_all(d.join("sub")).unwrap();
+    let by_another_name = d.join("sub/../cloud.xyz");
+    let mesh = d.join("mesh.ply");
+    for (flag, target) in [
+        ("-o", &input),
+        ("-o", &by_another_name),
+        ("--report", &input),
+    ] {
+        // `cluster` writes PLY whatever the extension: the format is no reason
+        // to refuse here.
+        let mut args: Vec<&std::ffi::OsStr> = vec!["cluster".as_ref(), "-q".as_ref()];
+        args.push(input.as_os_str());
+        if flag == "-o" {
+            args.extend(["-o".as_ref(), target.as_os_str()]);
+        } else {
+            args.extend([
+                "-o".as_ref(),
+                mesh.as_os_str(),
+                "--report".as_ref(),
+                target.as_os_str(),
+            ]);
+        }
+        let (code, stdout, stderr) = run(&args);
+        assert_eq!(code, Some(1), "{stderr}");
+        assert!(
+            stderr.contains(&format!("{flag} names the input file")),
+            "{stderr}"
+        );
+        assert!(stdout.is_empty(), "work was done: {stdout}");
+        assert_eq!(std::fs::read(&input).unwrap(), before);
+    }
+    assert!(!d.join("mesh.ply").exists());
+}
+
+#[test]
+fn where_a_run_writes_is_checked_before_any_work_and_named_once() {
+    let d = dir("locations");
+    std::fs::create_dir(d.join("dir.ply")).unwrap();
+    let missing = d.join("no_such_dir");
+    let cases: Vec<(Vec<std::ffi::OsString>, &str, std::path::PathBuf)> = vec![
+        (
+            vec!["-o".into(), missing.join("mesh.ply").into()],
+            "not found",
+            missing.join("mesh.ply"),
+        ),
+        (
+            vec![
+                "-o".into(),
+                d.join("mesh.ply").into(),
+                "--report".into(),
+                missing.join("r.json").into(),
+            ],
+            "not found",
+            missing.join("r.json"),
+        ),
+        (
+            vec![
+                "-o".into(),
+                d.join("mesh.ply").into(),
+                "--report".into(),
+                d.join("mesh.ply").into(),
+            ],
+            "--report names the same file as -o",
+            d.join("mesh.ply"),
+        ),
+        (
+            vec!["-o".into(), d.join("dir.ply").into()],
+            "-o names a directory",
+            d.join("dir.ply"),
+        ),
+        (
+            vec!["-o".into(), d.join("mesh.stl").into()],
+            "unknown mesh extension",
+            d.join("mesh.stl"),
+        ),
+    ];
+    for (args, needle, path) in cases {
+        let r = bin()
+            .args(["reconstruct", "-q"])
+            .args(common::SMALL)
+            .args(&args)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(1), "{args:?}: {stderr}");
+        assert!(stderr.contains(needle), "{args:?}: {stderr}");
+        let shown = path.display().to_string();
+        assert_eq!(stderr.matches(&shown).count(), 1, "{args:?}: {stderr}");
+        assert!(r.stdout.is_empty(), "{args:?}: work was done");
+    }
+    // No probe or temporary file is left behind.
+    let left: Vec<_> = std::fs::read_dir(&d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(left, ["dir.ply"]);
+    // A missing input is named once too.
+    let input = d.join("missing.ply");
+    let (code, _, stderr) = run(&[
+        "cluster".as_ref(),
+        input.as_os_str(),
+        "-o".as_ref(),
+        d.join("c.ply").as_os_str(),
+    ]);
+    assert_eq!(code, Some(1));
+    assert_eq!(
+        stderr.matches(&*input.display().to_string()).count(),
+        1,
+        "{stderr}"
+    );
+}
+
+#[test]
+fn limits_that_are_broken_are_named_with_both_numbers() {
+    let d = dir("limits");
+    let out = d.join("o.ply");
+    let r = bin()
+        .args([
+            "reconstruct",
+            "-q",
+            "--points",
+            "3000",
+            "--clusters",
+            "5000",
+            "-o",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(r.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("more clusters than points (5000 > 3000)") && !stderr.contains("memory"),
+        "{stderr}"
+    );
+    let r = bin()
+        .args(["cluster", "-q", "--points", "3000", "--knn", "40", "-o"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert!(stderr.contains("more than the limit of 32"), "{stderr}");
+    assert!(!out.exists());
+}
+
+#[test]
+fn completions_and_man_pages_come_from_the_options() {
+    for shell in ["bash", "zsh", "fish", "elvish", "powershell"] {
+        let (code, script, stderr) = run(&["completions".as_ref(), shell.as_ref()]);
+        assert_eq!(code, Some(0), "{shell}: {stderr}");
+        assert!(
+            script.contains("reconstruct") && script.contains("max-error"),
+            "{shell}: {script}"
+        );
+    }
+    let (code, page, _) = run(&["man".as_ref()]);
+    assert_eq!(code, Some(0));
+    assert!(
+        page.contains(".TH vsaqem 1") && page.contains("reconstruct"),
+        "{page}"
+    );
+    let d = dir("man");
+    let (code, _, stderr) = run(&["man".as_ref(), "--dir".as_ref(), d.as_os_str()]);
+    assert_eq!(code, Some(0), "{stderr}");
+    let page = std::fs::read_to_string(d.join("vsaqem-reconstruct.1")).unwrap();
+    assert!(page.contains("max\\-error"), "{page}");
+    let (code, _, stderr) = run(&["man".as_ref(), "--dir".as_ref(), d.join("nope").as_os_str()]);
+    assert_eq!(code, Some(1), "{stderr}");
+}
+
+#[cfg(unix)]
+#[test]
+fn a_stdout_that_cannot_be_written_is_an_error_not_a_panic() {
+    use std::process::Stdio;
+    let d = dir("stdout");
+    let full = Path::new("/dev/full");
+    if full.exists() {
+        let mesh = d.join("mesh.ply");
+        let mesh = mesh.to_str().unwrap();
+        for args in [
+            vec!["completions", "bash"],
+            vec!["reconstruct", "--help"],
+            vec![
+                "reconstruct",
+                "-q",
+                "--points",
+                "3000",
+                "--clusters",
+                "80",
+                "-o",
+                mesh,
+            ],
+        ] {
+            let r = bin()
+                .args(&args)
+                .stdout(std::fs::File::create(full).unwrap())
+                .output()
+                .unwrap();
+            let stderr = String::from_utf8_lossy(&r.stderr);
+            assert_eq!(r.status.code(), Some(1), "{args:?}: {stderr}");
+            assert!(
+                stderr.contains("cannot write to standard output") && !stderr.contains("panicked"),
+                "{args:?}: {stderr}"
+            );
+        }
+    }
+    // A pipe whose reader has gone: the report cannot be printed.
+    let mut child = bin()
+        .args([
+            "reconstruct",
+            "-q",
+            "--points",
+            "3000",
+            "--clusters",
+            "80",
+            "-o",
+        ])
+        .arg(d.join("piped.ply"))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let r = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(r.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("cannot write to standard output"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}

@@ -3,13 +3,17 @@
 use crate::args::{CleanArgs, ClusterArgs, InputArgs, MemoryArgs};
 use crate::clean::{read_and_clean, Cleaned, RunBytes};
 use crate::input::Prepared;
-use crate::io::{publish, write_atomic, write_points_ply};
-use crate::json;
+use crate::io::{write_atomic, write_points_ply};
+use crate::outputs::check_outputs;
 use crate::progress::StageClock;
-use crate::report::{error_json, tolerance_unmet, InputReport, RunReport};
+use crate::report::{
+    publish, report_json, source, ClusteringReport, Header, InputReport, ParamsReport, RunParams,
+    RunReport, StagePeaks,
+};
 use clap::Args;
+use serde::Serialize;
 use std::path::{Path, PathBuf};
-use vsaqem_core::{ClusterStats, Clustered};
+use vsaqem_core::Clustered;
 
 /// `vsaqem cluster`.
 #[derive(Args, Debug)]
@@ -20,22 +24,29 @@ pub struct Cmd {
     pub clean: CleanArgs,
     #[command(flatten)]
     pub cluster: ClusterArgs,
+    /// Output PLY: input points coloured by cluster (property `cluster`), then the
+    /// generators in black (not the input; its directory must exist and be
+    /// writable, checked before any work).
+    #[arg(short, long, help_heading = "Output")]
+    pub output: PathBuf,
+    /// Also write the report as JSON to this file (not the input nor the
+    /// output; layout: host/report.schema.json).
+    #[arg(long, value_name = "JSON", help_heading = "Output")]
+    pub report: Option<PathBuf>,
     #[command(flatten)]
     pub memory: MemoryArgs,
-    /// Output PLY: input points coloured by cluster (property `cluster`), then the
-    /// generators in black.
-    #[arg(short, long)]
-    pub output: PathBuf,
-    /// Also write the report as JSON to this file.
-    #[arg(long)]
-    pub report: Option<PathBuf>,
     /// No progress bar.
-    #[arg(short, long)]
+    #[arg(short, long, help_heading = "Run")]
     pub quiet: bool,
 }
 
 /// Run the command.
 pub fn run(cmd: &Cmd) -> Result<(), String> {
+    check_outputs(
+        cmd.input.input.as_deref(),
+        &cmd.output,
+        cmd.report.as_deref(),
+    )?;
     let mut clock = StageClock::new(!cmd.quiet).with_threads(cmd.memory.threads());
     let params = cmd.clean.apply(cmd.cluster.params());
     let bytes = RunBytes {
@@ -67,16 +78,31 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
     clock.time("write", || write_clusters(&cmd.output, &input, &out))?;
     let diag = out.bounds.diag;
     let report = ClusterReport {
-        input: InputReport::new(&input, points_read, stats.as_ref(), &params, diag),
+        header: Header::new("cluster"),
+        input: InputReport::new(
+            source(&cmd.input),
+            points_read,
+            input.invalid,
+            input.points.len(),
+            input.normals.is_some(),
+            stats.as_ref(),
+            &params,
+            diag as f64 * input.frame.scale,
+        ),
+        params: ParamsReport::new(&params, false, RunParams::of(&cmd.memory)),
         k: out.stats.k,
         spacing_relative: out.stats.spacing as f64 / diag as f64,
-        cluster: out.stats.cluster,
-        tolerance: params.tolerance,
-        cap: params.cluster_cap().min(input.points.len() as u32),
-        split_rounds: params.split_rounds,
+        components: out.stats.cluster.components,
+        clustering: ClusteringReport::new(&out.stats.cluster, &params, input.points.len()),
         run: RunReport::new(
             &clock,
-            out.stats.peak_clustering,
+            StagePeaks {
+                cleaning: stats.map(|s| s.peak),
+                neighbours: out.stats.peak_neighbours,
+                quadrics: out.stats.peak_quadrics,
+                clustering: out.stats.peak_clustering,
+                meshing: None,
+            },
             arena_reserved,
             bytes.needed(
                 &input,
@@ -88,14 +114,17 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
             &cmd.output,
         ),
     };
-    if let Some((why, true)) = tolerance_unmet(&report.cluster, report.cap, report.split_rounds) {
+    let c = &report.clustering;
+    if let Some((why, true)) = c.tolerance_unmet(params.split_rounds) {
         eprintln!(
             "warning: {}: {why}; largest error {:.3}% of the diagonal",
             input.name,
-            report.cluster.max_error * 100.0
+            c.max_error_relative * 100.0
         );
     }
-    publish(&report.text(), cmd.report.as_deref(), || report.json()).map_err(|e| e.to_string())
+    publish(&report.text(), cmd.report.as_deref(), || {
+        report_json(&report)
+    })
 }
 
 fn write_clusters(path: &Path, input: &Prepared, out: &Clustered) -> Result<(), String> {
@@ -139,27 +168,30 @@ fn label_colour(label: u32) -> [u8; 3] {
     [r, g, b].map(|t| ((t + m) * 255.0).round() as u8)
 }
 
-/// The report of a run, filled once from its results: the text and the JSON read
-/// only this.
+/// The report of a run, filled once from its results: its JSON is this struct
+/// serialised, its text reads only this.
+#[derive(Serialize)]
 struct ClusterReport {
+    #[serde(flatten)]
+    header: Header,
+    #[serde(flatten)]
     input: InputReport,
+    params: ParamsReport,
     /// Neighbours per point.
     k: u32,
     /// Average spacing (mean distance to the `k` nearest), relative to the diagonal.
     spacing_relative: f64,
-    cluster: ClusterStats,
-    /// `--tolerance`, as given (`cluster.tolerance` is the one used).
-    tolerance: f32,
-    /// The cluster cap.
-    cap: u32,
-    /// `--split-rounds`.
-    split_rounds: u32,
+    /// Connected components of the symmetrised neighbour graph.
+    components: u32,
+    #[serde(flatten)]
+    clustering: ClusteringReport,
+    #[serde(flatten)]
     run: RunReport,
 }
 
 impl ClusterReport {
     fn text(&self) -> String {
-        let c = &self.cluster;
+        let c = &self.clustering;
         let output = format!(
             ": {} points coloured by cluster + {} generators (black)",
             self.input.points, c.clusters
@@ -176,33 +208,14 @@ impl ClusterReport {
             c.clusters,
             c.initial_clusters,
             c.splits,
-            c.split_rounds,
-            c.rejected_batches,
+            c.split_batches,
+            c.split_batches_undone,
             c.passes,
             if c.converged { ", converged" } else { "" },
-            c.max_error * 100.0,
-            c.tolerance * 100.0,
-            tolerance_unmet(c, self.cap, self.split_rounds).map_or(String::new(), |(why, _)| format!("; {why}")),
+            c.max_error_relative * 100.0,
+            c.tolerance_used_relative * 100.0,
+            c.unmet_note(self.params.clustering.split_rounds),
             self.run.text(self.input.points, &output),
         )
-    }
-
-    fn json(&self) -> String {
-        let c = &self.cluster;
-        let mut o = json::Obj::default();
-        self.input.json(&mut o);
-        o.num("k", self.k as f64)
-            .num("spacing_relative", self.spacing_relative)
-            .num("components", c.components as f64)
-            .num("initial_clusters", c.initial_clusters as f64)
-            .num("clusters", c.clusters as f64)
-            .num("passes", c.passes as f64)
-            .num("split_batches", c.split_rounds as f64)
-            .num("split_batches_undone", c.rejected_batches as f64)
-            .num("splits", c.splits as f64)
-            .bool("converged", c.converged);
-        error_json(&mut o, c, self.tolerance, self.cap);
-        self.run.json(&mut o);
-        o.finish() + "\n"
     }
 }

@@ -1,10 +1,14 @@
 //! `vsaqem eval POINTS MESH`: how well a mesh fits the point cloud it came from.
 
-use crate::eval::{evaluate, Evaluation, Stats, DEFAULT_SAMPLES, FAR_FRACTION};
+use crate::eval::{
+    evaluate, Evaluation, Quality, Stats, Topology, Validity, DEFAULT_SAMPLES, FAR_FRACTION,
+};
 use crate::io::{read_cloud, read_mesh};
-use crate::json;
 use crate::progress::ms;
+use crate::report::report_json;
+use crate::stdout;
 use clap::Args;
+use serde::Serialize;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -54,11 +58,10 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
         eval_ms,
     };
     if cmd.json {
-        print!("{}", report.json());
+        stdout::print(&report.json()?)
     } else {
-        print!("{}", report.text());
+        stdout::print(&report.text())
     }
-    Ok(())
 }
 
 /// The report of a run, filled once: the text and the JSON read only this.
@@ -192,86 +195,113 @@ impl EvalReport {
     }
 
     /// The JSON report: every number of [`Evaluation`], distances also relative.
-    pub fn json(&self) -> String {
+    pub fn json(&self) -> Result<String, String> {
         let e = &self.evaluation;
-        let mut to_mesh = json::Obj::default();
-        to_mesh
-            .raw("distance", &stats_json(e, &e.point_to_mesh.stats))
-            .num("far", e.point_to_mesh.far as f64)
-            .num("far_threshold_relative", FAR_FRACTION);
-        let t = &e.topology;
-        let mut topo = json::Obj::default();
-        topo.num("vertices", t.vertices as f64)
-            .num("faces", t.faces as f64)
-            .num("invalid_faces", t.invalid_faces as f64)
-            .num("referenced_vertices", t.referenced_vertices as f64)
-            .num("unreferenced_vertices", t.unreferenced_vertices as f64)
-            .num("edges", t.edges as f64)
-            .num("boundary_edges", t.boundary_edges as f64)
-            .num("non_manifold_edges", t.non_manifold_edges as f64)
-            .num("non_manifold_vertices", t.non_manifold_vertices as f64)
-            .num("components", t.components as f64)
-            .num("inconsistent_edges", t.inconsistent_edges as f64)
-            .num("euler", t.euler as f64)
-            .num("degenerate_faces", t.degenerate_faces as f64)
-            .num("duplicate_faces", t.duplicate_faces as f64)
-            .bool("closed_manifold", t.is_closed_manifold());
-        let v = &e.validity;
-        let genus: Vec<f64> = v.genus.iter().map(|&g| f64::from(g)).collect();
-        let mut validity = json::Obj::default();
-        validity
-            .num("self_intersecting_pairs", v.self_intersecting_pairs as f64)
-            .num("coincident_vertices", v.coincident_vertices as f64)
-            .num("folded_edges", v.folded_edges as f64)
-            .num("bubbles", v.bubbles as f64)
-            .num("bubble_faces", v.bubble_faces as f64)
-            .num("closed_components", v.closed_components as f64)
-            .raw("genus", &json::array(&genus))
-            .num("handles", v.handles() as f64)
-            .num(
-                "expected_genus",
-                self.expect_genus.map_or(f64::NAN, |g| g as f64),
-            )
-            .bool("valid_solid", self.valid_solid());
-        let q = &e.quality;
-        let mut quality = json::Obj::default();
-        quality
-            .num("min_angle_min", q.min)
-            .num("min_angle_p1", q.p1)
-            .num("min_angle_p5", q.p5)
-            .num("min_angle_p50", q.p50);
-        let mut time = json::Obj::default();
-        time.num("read", self.read_ms).num("evaluate", self.eval_ms);
-        let mut o = json::Obj::default();
-        o.str("points_file", &self.points_file)
-            .str("mesh_file", &self.mesh_file)
-            .num("points", e.points as f64)
-            .num("diagonal", e.diagonal)
-            .raw("point_to_mesh", &to_mesh.nested())
-            .raw("mesh_to_points", &stats_json(e, &e.mesh_to_points))
-            .num("chamfer", e.chamfer)
-            .num("chamfer_relative", e.rel(e.chamfer))
-            .num("hausdorff", e.hausdorff)
-            .num("hausdorff_relative", e.rel(e.hausdorff))
-            .num("signed_volume", e.signed_volume)
-            .raw("topology", &topo.nested())
-            .raw("validity", &validity.nested())
-            .raw("quality", &quality.nested())
-            .raw("time_ms", &time.nested());
-        o.finish() + "\n"
+        let (t, v) = (&e.topology, &e.validity);
+        report_json(&EvalJson {
+            points_file: &self.points_file,
+            mesh_file: &self.mesh_file,
+            points: e.points,
+            diagonal: e.diagonal,
+            point_to_mesh: ToMesh {
+                distance: StatsJson::new(e, &e.point_to_mesh.stats),
+                far: e.point_to_mesh.far,
+                far_threshold_relative: FAR_FRACTION,
+            },
+            mesh_to_points: StatsJson::new(e, &e.mesh_to_points),
+            chamfer: e.chamfer,
+            chamfer_relative: e.rel(e.chamfer),
+            hausdorff: e.hausdorff,
+            hausdorff_relative: e.rel(e.hausdorff),
+            signed_volume: e.signed_volume,
+            topology: TopologyJson {
+                topology: t,
+                closed_manifold: t.is_closed_manifold(),
+            },
+            validity: ValidityJson {
+                validity: v,
+                handles: v.handles(),
+                expected_genus: self.expect_genus,
+                valid_solid: self.valid_solid(),
+            },
+            quality: &e.quality,
+            time_ms: Times {
+                read: self.read_ms,
+                evaluate: self.eval_ms,
+            },
+        })
     }
 }
 
-fn stats_json(e: &Evaluation, s: &Stats) -> String {
-    let mut o = json::Obj::default();
-    o.num("count", s.count as f64)
-        .num("max", s.max)
-        .num("mean", s.mean)
-        .num("rms", s.rms)
-        .num("p99", s.p99)
-        .num("max_relative", e.rel(s.max))
-        .num("mean_relative", e.rel(s.mean))
-        .num("rms_relative", e.rel(s.rms))
-        .num("p99_relative", e.rel(s.p99));
-    o.nested()
+/// The JSON of an [`EvalReport`]: its numbers, each distance also relative to
+/// the diagonal, the verdicts beside the counts they come from.
+#[derive(Serialize)]
+struct EvalJson<'a> {
+    points_file: &'a str,
+    mesh_file: &'a str,
+    points: usize,
+    diagonal: f64,
+    point_to_mesh: ToMesh<'a>,
+    mesh_to_points: StatsJson<'a>,
+    chamfer: f64,
+    chamfer_relative: f64,
+    hausdorff: f64,
+    hausdorff_relative: f64,
+    signed_volume: f64,
+    topology: TopologyJson<'a>,
+    validity: ValidityJson<'a>,
+    quality: &'a Quality,
+    time_ms: Times,
+}
+
+#[derive(Serialize)]
+struct ToMesh<'a> {
+    distance: StatsJson<'a>,
+    far: usize,
+    far_threshold_relative: f64,
+}
+
+/// [`Stats`] in file units, then relative to the diagonal.
+#[derive(Serialize)]
+struct StatsJson<'a> {
+    #[serde(flatten)]
+    stats: &'a Stats,
+    max_relative: f64,
+    mean_relative: f64,
+    rms_relative: f64,
+    p99_relative: f64,
+}
+
+impl<'a> StatsJson<'a> {
+    fn new(e: &Evaluation, s: &'a Stats) -> Self {
+        StatsJson {
+            stats: s,
+            max_relative: e.rel(s.max),
+            mean_relative: e.rel(s.mean),
+            rms_relative: e.rel(s.rms),
+            p99_relative: e.rel(s.p99),
+        }
+    }
+}
+
+#[derive(Serialize)]
+struct TopologyJson<'a> {
+    #[serde(flatten)]
+    topology: &'a Topology,
+    closed_manifold: bool,
+}
+
+#[derive(Serialize)]
+struct ValidityJson<'a> {
+    #[serde(flatten)]
+    validity: &'a Validity,
+    handles: u64,
+    expected_genus: Option<u64>,
+    valid_solid: bool,
+}
+
+#[derive(Serialize)]
+struct Times {
+    read: f64,
+    evaluate: f64,
 }

@@ -2,17 +2,21 @@
 
 use crate::args::{CleanArgs, ClusterArgs, InputArgs, MemoryArgs};
 use crate::clean::{read_and_clean, Cleaned, RunBytes};
-use crate::input::Prepared;
-use crate::io::{publish, write_atomic, write_mesh, MeshFormat};
-use crate::json;
+use crate::io::{write_atomic, write_mesh, MeshFormat};
+use crate::outputs::check_outputs;
 use crate::progress::StageClock;
-use crate::report::{error_json, tolerance_unmet, InputReport, RunReport};
+use crate::report::{
+    publish, report_json, source, ClusteringReport, Header, InputReport, MeshCheck, ParamsReport,
+    RunParams, RunReport, StagePeaks,
+};
 use clap::Args;
-use std::path::{Path, PathBuf};
-use vsaqem_core::{ClusterStats, Error, MeshingStats, Params, Reconstruction};
+use serde::Serialize;
+use std::path::PathBuf;
+use vsaqem_core::{Error, MeshingStats, Params};
 
 /// Meshing parameters; defaults are `vsaqem_core::Params::default()`.
 #[derive(Args, Debug, Clone)]
+#[command(next_help_heading = "Meshing")]
 pub struct MeshArgs {
     /// Support distance of the facet fitting term, fraction of the diagonal.
     #[arg(long, default_value_t = Params::default().epsilon)]
@@ -84,16 +88,18 @@ pub struct Cmd {
     pub cluster: ClusterArgs,
     #[command(flatten)]
     pub mesh: MeshArgs,
+    /// Output mesh: .ply, .obj or .off (not the input; its directory must
+    /// exist and be writable, checked before any work).
+    #[arg(short, long, default_value = "mesh.ply", help_heading = "Output")]
+    pub output: PathBuf,
+    /// Also write the report as JSON to this file (not the input nor the
+    /// output; layout: host/report.schema.json).
+    #[arg(long, value_name = "JSON", help_heading = "Output")]
+    pub report: Option<PathBuf>,
     #[command(flatten)]
     pub memory: MemoryArgs,
-    /// Output mesh: .ply, .obj or .off.
-    #[arg(short, long, default_value = "mesh.ply")]
-    pub output: PathBuf,
-    /// Also write the report as JSON to this file.
-    #[arg(long)]
-    pub report: Option<PathBuf>,
     /// No progress bar.
-    #[arg(short, long)]
+    #[arg(short, long, help_heading = "Run")]
     pub quiet: bool,
 }
 
@@ -122,8 +128,12 @@ impl Cmd {
 
 /// Run the command.
 pub fn run(cmd: &Cmd) -> Result<(), String> {
-    let format =
-        MeshFormat::from_path(&cmd.output).map_err(|e| format!("{}: {e}", cmd.output.display()))?;
+    let format = MeshFormat::from_path(&cmd.output)?;
+    check_outputs(
+        cmd.input.input.as_deref(),
+        &cmd.output,
+        cmd.report.as_deref(),
+    )?;
     let mut clock = StageClock::new(!cmd.quiet).with_threads(cmd.memory.threads());
     let params = cmd.params();
     let bytes = RunBytes {
@@ -163,100 +173,225 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
         }
         e => format!("{}: {e}", input.name),
     })?;
-    clock.time("write", || write_output(&cmd.output, format, &input, &out))?;
+    // The vertices in file coordinates as the file holds them: the check is of
+    // the mesh written, not of a more precise one.
+    let vertices: Vec<[f64; 3]> = out
+        .mesh
+        .vertices
+        .iter()
+        .map(|&v| format.stored(input.frame.to_file(v)))
+        .collect();
+    let triangles = out.mesh.triangles;
+    let check = clock.time("check", || MeshCheck::new(&vertices, triangles));
+    clock.time("write", || {
+        write_atomic(&cmd.output, |w| write_mesh(w, format, &vertices, triangles))
+            .map_err(|e| e.to_string())
+    })?;
     let diag = out.clustered.bounds.diag;
+    let cs = &out.clustered.stats;
     let report = ReconstructReport {
-        input: InputReport::new(&input, points_read, stats.as_ref(), &params, diag),
-        cluster: out.clustered.stats.cluster,
-        tolerance: params.tolerance,
-        max_error: params.max_error,
-        cap: params.cluster_cap().min(input.points.len() as u32),
-        split_rounds: params.split_rounds,
-        meshing: out.meshing,
+        header: Header::new("reconstruct"),
+        input: InputReport::new(
+            source(&cmd.input),
+            points_read,
+            input.invalid,
+            input.points.len(),
+            input.normals.is_some(),
+            stats.as_ref(),
+            &params,
+            diag as f64 * input.frame.scale,
+        ),
+        params: ParamsReport::new(&params, true, RunParams::of(&cmd.memory)),
+        clustering: ClusteringReport::new(&cs.cluster, &params, input.points.len()),
+        meshing: MeshingReport::new(&out.meshing, params.max_error),
         run: RunReport::new(
             &clock,
-            out.meshing.peak,
+            StagePeaks {
+                cleaning: stats.map(|s| s.peak),
+                neighbours: cs.peak_neighbours,
+                quadrics: cs.peak_quadrics,
+                clustering: cs.peak_clustering,
+                meshing: Some(out.meshing.peak),
+            },
             arena_reserved,
             bytes.needed(
                 &input,
                 points_read,
                 &params,
-                out.clustered.stats.reverse_edges as usize,
+                cs.reverse_edges as usize,
                 searched,
             ),
             &cmd.output,
         ),
+        mesh: check,
     };
-    if let Some((why, true)) = tolerance_unmet(&report.cluster, report.cap, report.split_rounds) {
+    let (c, m) = (&report.clustering, &report.meshing);
+    if let Some((why, true)) = c.tolerance_unmet(params.split_rounds) {
         eprintln!(
             "warning: {}: {why}; largest error {:.3}% of the diagonal",
             input.name,
-            report.cluster.max_error * 100.0
+            c.max_error_relative * 100.0
         );
     }
-    if let Some(over) = report.max_error_missed() {
+    if let Some(over) = m.max_error_missed() {
         eprintln!(
             "warning: {}: --max-error {} not met: the farthest point is {:.3}% of the \
              diagonal from the mesh ({:.3}% over) after {} refinement rounds with {} \
              clusters: {}",
             input.name,
             params.max_error,
-            out.meshing.mesh.distance.max * 100.0,
+            m.distance_max_relative * 100.0,
             over * 100.0,
-            out.meshing.refine_rounds,
-            out.clustered.stats.cluster.clusters,
+            m.refine_rounds,
+            c.clusters,
             report.max_error_stop(),
         );
     }
-    publish(&report.text(), cmd.report.as_deref(), || report.json()).map_err(|e| e.to_string())
-}
-
-fn write_output(
-    path: &Path,
-    format: MeshFormat,
-    input: &Prepared,
-    out: &Reconstruction,
-) -> Result<(), String> {
-    let vertices: Vec<[f64; 3]> = out
-        .mesh
-        .vertices
-        .iter()
-        .map(|&v| input.frame.to_file(v))
-        .collect();
-    write_atomic(path, |w| {
-        write_mesh(w, format, &vertices, out.mesh.triangles)
+    publish(&report.text(), cmd.report.as_deref(), || {
+        report_json(&report)
     })
-    .map_err(|e| e.to_string())
 }
 
-/// The report of a run, filled once from its results: the text and the JSON read
-/// only this.
+/// The report of a run, filled once from its results: its JSON is this struct
+/// serialised, its text reads only this.
+#[derive(Serialize)]
 struct ReconstructReport {
+    #[serde(flatten)]
+    header: Header,
+    #[serde(flatten)]
     input: InputReport,
-    cluster: ClusterStats,
-    /// `--tolerance`, as given (`cluster.tolerance` is the one used).
-    tolerance: f32,
-    /// `--max-error` (0: no bound).
-    max_error: f32,
-    /// The cluster cap.
-    cap: u32,
-    /// `--split-rounds`.
-    split_rounds: u32,
-    meshing: MeshingStats,
+    params: ParamsReport,
+    #[serde(flatten)]
+    clustering: ClusteringReport,
+    #[serde(flatten)]
+    meshing: MeshingReport,
+    #[serde(flatten)]
     run: RunReport,
+    /// The checks of the mesh written.
+    mesh: MeshCheck,
 }
 
-impl ReconstructReport {
+/// What meshing gave (core's [`MeshingStats`], under the report's names):
+/// candidates, the selection, the mesh, its repairs and its distance to the
+/// points (relative to the diagonal).
+#[derive(Clone, Copy, Debug, Serialize)]
+struct MeshingReport {
+    refine_rounds: u32,
+    gap_rounds: u32,
+    refine_added: u32,
+    candidate_edges: u32,
+    candidate_facets: u32,
+    degenerate_facets: u32,
+    fold_groups: u32,
+    merged_generators: u32,
+    mean_supports: f32,
+    solver_optimal: bool,
+    solver_gap: f64,
+    solver_nodes: u64,
+    solver_objective: f64,
+    solver_upper_bound: f64,
+    solver_components: u32,
+    solver_largest_component: u32,
+    solver_forced: u32,
+    vertices: u32,
+    faces: u32,
+    boundary_edges: u32,
+    components: u32,
+    non_orientable_components: u32,
+    pinches_repaired: u32,
+    thin_parts_joined: u32,
+    bubbles_removed: u32,
+    tangled_pairs: u32,
+    split_vertices: u32,
+    border_clusters: u32,
+    open_loops: u32,
+    holes_filled: u32,
+    filled_faces: u32,
+    holes_left: u32,
+    orientation_repairs: u32,
+    inserted_clusters: u32,
+    densified: u32,
+    uncovered_clusters: u32,
+    uncovered_points: u32,
+    fit_rounds: u32,
+    fitted_vertices: u32,
+    fit_reverted: u32,
+    distance_max_relative: f32,
+    distance_p99_relative: f32,
+    distance_mean_relative: f32,
+    /// `--max-error` (0: no bound); `max_error_relative` is clustering's.
+    error_bound_relative: f32,
+    /// Whether every point is within it (absent without a bound).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    error_bound_met: Option<bool>,
+}
+
+impl MeshingReport {
+    /// The report of meshing that gave `m` under the error bound `max_error`.
+    fn new(m: &MeshingStats, max_error: f32) -> Self {
+        let (sel, mesh) = (&m.selection, &m.mesh);
+        let d = &mesh.distance;
+        MeshingReport {
+            refine_rounds: m.refine_rounds,
+            gap_rounds: m.gap_rounds,
+            refine_added: m.refine_added,
+            candidate_edges: m.candidate_edges,
+            candidate_facets: m.candidate_facets,
+            degenerate_facets: m.degenerate_facets,
+            fold_groups: m.fold_groups,
+            merged_generators: m.merged_generators,
+            mean_supports: m.mean_supports,
+            solver_optimal: sel.optimal,
+            solver_gap: sel.gap,
+            solver_nodes: sel.nodes,
+            solver_objective: sel.objective,
+            solver_upper_bound: sel.upper_bound,
+            solver_components: sel.components,
+            solver_largest_component: sel.largest_component,
+            solver_forced: sel.forced,
+            vertices: mesh.vertices,
+            faces: mesh.faces,
+            boundary_edges: mesh.boundary_edges,
+            components: mesh.components,
+            non_orientable_components: mesh.non_orientable,
+            pinches_repaired: mesh.pinches_repaired,
+            thin_parts_joined: mesh.necks,
+            bubbles_removed: mesh.bubbles_removed,
+            tangled_pairs: mesh.tangled_pairs,
+            split_vertices: mesh.split_vertices,
+            border_clusters: m.border_clusters,
+            open_loops: mesh.open_loops,
+            holes_filled: mesh.holes_filled,
+            filled_faces: mesh.filled_faces,
+            holes_left: mesh.holes_left,
+            orientation_repairs: mesh.repairs,
+            inserted_clusters: mesh.inserted_clusters,
+            densified: mesh.densified,
+            uncovered_clusters: mesh.uncovered_clusters,
+            uncovered_points: mesh.uncovered_points,
+            fit_rounds: mesh.fit.rounds,
+            fitted_vertices: mesh.fit.moved,
+            fit_reverted: mesh.fit.reverted,
+            distance_max_relative: d.max,
+            distance_p99_relative: d.p99,
+            distance_mean_relative: d.mean,
+            error_bound_relative: max_error,
+            error_bound_met: (max_error > 0.0).then_some(d.max <= max_error),
+        }
+    }
+
     /// By how much the farthest point exceeds `--max-error` (relative), when
     /// a bound was asked for and not met.
     fn max_error_missed(&self) -> Option<f32> {
-        let max = self.meshing.mesh.distance.max;
-        (self.max_error > 0.0 && max > self.max_error).then_some(max - self.max_error)
+        let (max, bound) = (self.distance_max_relative, self.error_bound_relative);
+        (bound > 0.0 && max > bound).then_some(max - bound)
     }
+}
 
+impl ReconstructReport {
     /// Why refinement stopped short of `--max-error`.
     fn max_error_stop(&self) -> &'static str {
-        if self.cluster.clusters >= self.cap {
+        if self.clustering.clusters >= self.clustering.cluster_cap {
             "the cluster cap is reached (raise --max-clusters)"
         } else if self.meshing.refine_rounds >= vsaqem_core::MAX_ERROR_ROUNDS {
             "the most rounds an error bound runs"
@@ -266,68 +401,69 @@ impl ReconstructReport {
     }
 
     fn fit_text(&self) -> String {
-        let mesh = &self.meshing.mesh;
+        let m = &self.meshing;
         let densify = format!(
             "densify    {} vertices added where the mesh was farthest from the data\n",
-            mesh.densified
+            m.densified
         );
-        let fit = &mesh.fit;
-        if fit.rounds == 0 {
+        if m.fit_rounds == 0 {
             return densify + "fit        none (--fit-rounds 0, or no faces)\n";
         }
         densify
             + &format!(
                 "fit        {} vertices moved onto the data in {} rounds, {} moves taken back \
                  (a face would turn over or collapse)\n",
-                fit.moved, fit.rounds, fit.reverted
+                m.fitted_vertices, m.fit_rounds, m.fit_reverted
             )
     }
 
     fn distance_text(&self) -> String {
-        let d = &self.meshing.mesh.distance;
-        let bound = match self.max_error_missed() {
-            _ if self.max_error <= 0.0 => String::new(),
-            None => format!("; bound {:.3}% met", self.max_error * 100.0),
+        let m = &self.meshing;
+        let bound = m.error_bound_relative;
+        let bound = match m.max_error_missed() {
+            _ if bound <= 0.0 => String::new(),
+            None => format!("; bound {:.3}% met", bound * 100.0),
             Some(over) => format!(
                 "; bound {:.3}% NOT met ({:.3}% over: {})",
-                self.max_error * 100.0,
+                bound * 100.0,
                 over * 100.0,
                 self.max_error_stop()
             ),
         };
         format!(
             "distance   points to mesh: max {:.3}%, p99 {:.3}%, mean {:.4}% of the diagonal{bound}\n",
-            d.max * 100.0,
-            d.p99 * 100.0,
-            d.mean * 100.0
+            m.distance_max_relative * 100.0,
+            m.distance_p99_relative * 100.0,
+            m.distance_mean_relative * 100.0
         )
     }
 
     fn text(&self) -> String {
-        let cl = &self.cluster;
+        let cl = &self.clustering;
         let m = &self.meshing;
-        let sel = &m.selection;
-        let mesh = &m.mesh;
-        let solver = if sel.optimal {
-            format!("optimal ({} nodes)", sel.nodes)
+        let solver = if m.solver_optimal {
+            format!("optimal ({} nodes)", m.solver_nodes)
         } else {
             format!(
                 "node limit reached, gap {:.3}% ({} nodes)",
-                sel.gap * 100.0,
-                sel.nodes
+                m.solver_gap * 100.0,
+                m.solver_nodes
             )
         };
-        let closed = if mesh.boundary_edges == 0 && mesh.uncovered_clusters == 0 {
+        // The mesh as written (core's counts can miss what densifying did
+        // at the boundary).
+        let t = &self.mesh.topology;
+        let closed = if t.boundary_edges == 0 && m.uncovered_clusters == 0 {
             "watertight".to_string()
-        } else if mesh.boundary_edges == 0 {
+        } else if t.boundary_edges == 0 {
             format!(
                 "closed, but {} clusters ({} points) are not covered",
-                mesh.uncovered_clusters, mesh.uncovered_points
+                m.uncovered_clusters, m.uncovered_points
             )
         } else {
             format!(
                 "{} boundary edges, {} uncovered clusters ({} points)",
-                mesh.boundary_edges, mesh.uncovered_clusters, mesh.uncovered_points
+                t.boundary_edges, m.uncovered_clusters, m.uncovered_points
             )
         };
         format!(
@@ -340,6 +476,7 @@ impl ReconstructReport {
              {}\
              border     {} clusters on the border of the data, {} boundary loops kept open along it\n\
              repair     {} holes closed with {} faces, {} left open; {} orientation clashes cut out; {} pinches re-meshed, {} thin parts joined, {} bubbles removed, {} vertices split; {} crossing or folded face pairs left\n\
+             {}\
              {}",
             self.input.text(),
             cl.clusters,
@@ -352,97 +489,36 @@ impl ReconstructReport {
             } else {
                 String::new()
             },
-            cl.max_error * 100.0,
-            tolerance_unmet(cl, self.cap, self.split_rounds).map_or(String::new(), |(why, _)| format!("; {why}")),
+            cl.max_error_relative * 100.0,
+            cl.unmet_note(self.params.clustering.split_rounds),
             m.candidate_edges,
             m.candidate_facets,
             m.degenerate_facets,
             m.fold_groups,
             m.merged_generators,
             m.mean_supports,
-            sel.components,
-            sel.largest_component,
-            sel.forced,
-            mesh.vertices,
-            mesh.faces,
-            mesh.components,
-            mesh.inserted_clusters,
+            m.solver_components,
+            m.solver_largest_component,
+            m.solver_forced,
+            t.vertices,
+            t.faces,
+            t.components,
+            m.inserted_clusters,
             self.fit_text(),
             self.distance_text(),
             m.border_clusters,
-            mesh.open_loops,
-            mesh.holes_filled,
-            mesh.filled_faces,
-            mesh.holes_left,
-            mesh.repairs,
-            mesh.pinches_repaired,
-            mesh.necks,
-            mesh.bubbles_removed,
-            mesh.split_vertices,
-            mesh.tangled_pairs,
+            m.open_loops,
+            m.holes_filled,
+            m.filled_faces,
+            m.holes_left,
+            m.orientation_repairs,
+            m.pinches_repaired,
+            m.thin_parts_joined,
+            m.bubbles_removed,
+            m.split_vertices,
+            m.tangled_pairs,
+            self.mesh.text(),
             self.run.text(self.input.points, ""),
         )
-    }
-
-    fn json(&self) -> String {
-        let cl = &self.cluster;
-        let m = &self.meshing;
-        let sel = &m.selection;
-        let mesh = &m.mesh;
-        let mut o = json::Obj::default();
-        self.input.json(&mut o);
-        o.num("clusters", cl.clusters as f64)
-            .num("initial_clusters", cl.initial_clusters as f64)
-            .num("splits", cl.splits as f64)
-            .num("refine_rounds", m.refine_rounds as f64)
-            .num("gap_rounds", m.gap_rounds as f64)
-            .num("refine_added", m.refine_added as f64)
-            .num("passes", cl.passes as f64);
-        error_json(&mut o, cl, self.tolerance, self.cap);
-        o.num("candidate_edges", m.candidate_edges as f64)
-            .num("candidate_facets", m.candidate_facets as f64)
-            .num("degenerate_facets", m.degenerate_facets as f64)
-            .num("fold_groups", m.fold_groups as f64)
-            .num("merged_generators", m.merged_generators as f64)
-            .bool("solver_optimal", sel.optimal)
-            .num("solver_gap", sel.gap)
-            .num("solver_nodes", sel.nodes as f64)
-            .num("solver_objective", sel.objective)
-            .num("solver_upper_bound", sel.upper_bound)
-            .num("solver_components", sel.components as f64)
-            .num("solver_largest_component", sel.largest_component as f64)
-            .num("vertices", mesh.vertices as f64)
-            .num("faces", mesh.faces as f64)
-            .num("boundary_edges", mesh.boundary_edges as f64)
-            .num("components", mesh.components as f64)
-            .num("non_orientable_components", mesh.non_orientable as f64)
-            .num("pinches_repaired", mesh.pinches_repaired as f64)
-            .num("thin_parts_joined", mesh.necks as f64)
-            .num("bubbles_removed", mesh.bubbles_removed as f64)
-            .num("tangled_pairs", mesh.tangled_pairs as f64)
-            .num("split_vertices", mesh.split_vertices as f64)
-            .num("border_clusters", m.border_clusters as f64)
-            .num("open_loops", mesh.open_loops as f64)
-            .num("holes_filled", mesh.holes_filled as f64)
-            .num("filled_faces", mesh.filled_faces as f64)
-            .num("holes_left", mesh.holes_left as f64)
-            .num("orientation_repairs", mesh.repairs as f64)
-            .num("inserted_clusters", mesh.inserted_clusters as f64)
-            .num("densified", mesh.densified as f64)
-            .num("uncovered_clusters", mesh.uncovered_clusters as f64)
-            .num("uncovered_points", mesh.uncovered_points as f64)
-            .num("fit_rounds", mesh.fit.rounds as f64)
-            .num("fitted_vertices", mesh.fit.moved as f64)
-            .num("fit_reverted", mesh.fit.reverted as f64)
-            .num("distance_max_relative", mesh.distance.max as f64)
-            .num("distance_p99_relative", mesh.distance.p99 as f64)
-            .num("distance_mean_relative", mesh.distance.mean as f64)
-            // `max_error_relative` is clustering's (as in `cluster`'s report).
-            .num("error_bound_relative", self.max_error as f64);
-        if self.max_error > 0.0 {
-            o.bool("error_bound_met", self.max_error_missed().is_none());
-        }
-        self.run.json(&mut o);
-        o.finish() + "\n"
     }
 }

@@ -113,11 +113,10 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
         hstack(&images, Some(&labels))
     };
     save_png(&cmd.output, &img).map_err(|e| e.to_string())?;
-    println!(
-        "wrote {} ({}x{})",
+    crate::stdout::print(&format!(
+        "wrote {} ({}x{})\n",
         cmd.output.display(),
         img.width,
         img.height
-    );
-    Ok(())
+    ))
 }

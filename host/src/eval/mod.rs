@@ -37,6 +37,7 @@ pub use distance::{dist2_point_triangle, sample_surface};
 pub use intersect::self_intersecting_pairs;
 pub use quality::min_angle_deg;
 use quality::quality;
+use serde::Serialize;
 use topology::topology;
 use validity::validity;
 
@@ -60,7 +61,7 @@ pub const BUBBLE_FACES: usize = 20;
 pub const BUBBLE_RATIO: usize = 10;
 
 /// Summary of a set of distances (file units). All NaN when the set is empty.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Stats {
     /// Number of distances.
     pub count: usize,
@@ -90,7 +91,7 @@ pub struct PointToMesh {
 /// everything else. Faces with a repeated index are counted as degenerate and left out
 /// of the combinatorial counts (edges, fans, components, orientation, Euler), which use
 /// the remaining faces ("proper faces") and the vertices they reference.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
 pub struct Topology {
     /// Vertices in the vertex list.
     pub vertices: usize,
@@ -138,7 +139,7 @@ impl Topology {
 ///
 /// Faces with a repeated index, a non-finite coordinate or zero area (all counted in
 /// [`Topology::degenerate_faces`]) are left out of the intersection test.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
 pub struct Validity {
     /// Pairs of faces that meet anywhere other than along the edge or at the vertex
     /// they share by index (core's `faces_intersect`); exact. Touching counts, so does a
@@ -171,15 +172,19 @@ impl Validity {
 }
 
 /// Minimum angle per face, in degrees (0 for degenerate faces). NaN without faces.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Quality {
     /// Smallest minimum angle.
+    #[serde(rename = "min_angle_min")]
     pub min: f64,
     /// 1st percentile (nearest rank).
+    #[serde(rename = "min_angle_p1")]
     pub p1: f64,
     /// 5th percentile.
+    #[serde(rename = "min_angle_p5")]
     pub p5: f64,
     /// Median.
+    #[serde(rename = "min_angle_p50")]
     pub p50: f64,
 }
 
@@ -216,33 +221,80 @@ impl Evaluation {
         d / self.diagonal
     }
 
+    /// A sound surface ([`Solid::is_sound`]).
+    pub fn is_sound(&self) -> bool {
+        sound(&self.topology, &self.validity)
+    }
+
+    /// A valid solid ([`Solid::is_valid_solid`]).
+    pub fn is_valid_solid(&self, genus: Option<u64>) -> bool {
+        valid_solid(&self.topology, &self.validity, genus)
+    }
+}
+
+/// The checks of a mesh that need no point cloud: its combinatorics and whether
+/// it is a valid solid ([`check_solid`]).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Solid {
+    /// Combinatorial checks.
+    pub topology: Topology,
+    /// Geometric checks of a solid.
+    pub validity: Validity,
+}
+
+impl Solid {
     /// A sound surface, open or closed: faces, all proper (no degenerate,
     /// duplicate or out-of-range face), edge- and vertex-manifold and
     /// consistently oriented, with no self-intersecting pair, coincident vertex,
     /// folded edge or bubble.
     pub fn is_sound(&self) -> bool {
-        let (t, v) = (&self.topology, &self.validity);
-        t.faces > 0
-            && t.non_manifold_edges == 0
-            && t.non_manifold_vertices == 0
-            && t.inconsistent_edges == 0
-            && t.degenerate_faces == 0
-            && t.duplicate_faces == 0
-            && t.invalid_faces == 0
-            && v.self_intersecting_pairs == 0
-            && v.coincident_vertices == 0
-            && v.folded_edges == 0
-            && v.bubbles == 0
+        sound(&self.topology, &self.validity)
     }
 
-    /// A valid solid: sound ([`Evaluation::is_sound`]) and closed (no boundary
+    /// A valid solid: sound ([`Solid::is_sound`]) and closed (no boundary
     /// edge, so a closed manifold: [`Topology::is_closed_manifold`]); and, when
     /// `genus` is given, [`Validity::handles`] equal to it.
     pub fn is_valid_solid(&self, genus: Option<u64>) -> bool {
-        self.is_sound()
-            && self.topology.is_closed_manifold()
-            && genus.is_none_or(|g| g == self.validity.handles())
+        valid_solid(&self.topology, &self.validity, genus)
     }
+}
+
+fn sound(t: &Topology, v: &Validity) -> bool {
+    t.faces > 0
+        && t.non_manifold_edges == 0
+        && t.non_manifold_vertices == 0
+        && t.inconsistent_edges == 0
+        && t.degenerate_faces == 0
+        && t.duplicate_faces == 0
+        && t.invalid_faces == 0
+        && v.self_intersecting_pairs == 0
+        && v.coincident_vertices == 0
+        && v.folded_edges == 0
+        && v.bubbles == 0
+}
+
+fn valid_solid(t: &Topology, v: &Validity, genus: Option<u64>) -> bool {
+    sound(t, v) && t.is_closed_manifold() && genus.is_none_or(|g| g == v.handles())
+}
+
+/// The topology and validity checks of [`evaluate`] alone, for a mesh without
+/// its point cloud (the mesh a run writes). Faces with an index out of range
+/// are counted in [`Topology::invalid_faces`] and left out of the rest.
+/// O(F log F) plus the self-intersection test: each face against the faces
+/// whose bounding boxes overlap its own.
+pub fn check_solid(vertices: &[[f64; 3]], triangles: &[[u32; 3]]) -> Solid {
+    let nv = vertices.len();
+    let valid: Vec<[u32; 3]> = triangles
+        .iter()
+        .copied()
+        .filter(|t| t.iter().all(|&i| (i as usize) < nv))
+        .collect();
+    let surface = topology(vertices, &valid);
+    let validity = validity(vertices, &valid, &surface);
+    let mut topology = surface.topology;
+    topology.faces = triangles.len();
+    topology.invalid_faces = triangles.len() - valid.len();
+    Solid { topology, validity }
 }
 
 /// Evaluates the mesh (`vertices`, `triangles`) against `points`, with `samples`
@@ -274,11 +326,7 @@ pub fn evaluate(
     let to_mesh = stats(to_mesh);
     let to_points = stats(mesh_to_point_distances(points, &tris, samples));
 
-    let surface = topology(vertices, &valid);
-    let validity = validity(vertices, &valid, &surface);
-    let mut topology = surface.topology;
-    topology.faces = triangles.len();
-    topology.invalid_faces = triangles.len() - valid.len();
+    let Solid { topology, validity } = check_solid(vertices, triangles);
     Evaluation {
         points: points.len(),
         diagonal,

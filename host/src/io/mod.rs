@@ -37,7 +37,7 @@ pub mod stl;
 pub mod write;
 pub mod xyz;
 
-pub use write::{publish, write_atomic, write_mesh, write_points_ply, MeshFormat, WriteError};
+pub use write::{write_atomic, write_mesh, write_points_ply, MeshFormat, WriteError};
 
 /// A point cloud as read from a file, in the file's own units (`f64`).
 ///

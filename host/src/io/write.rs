@@ -1,5 +1,5 @@
 //! Writing results: atomic replacement of the target file, labelled points as binary
-//! PLY, meshes as binary PLY, OBJ or OFF, and reports ([`publish`]).
+//! PLY, and meshes as binary PLY, OBJ or OFF.
 //!
 //! [`write_atomic`] writes a hidden temporary file beside the target, syncs it and renames
 //! it over the target, so the target is either the old file or the complete new one.
@@ -115,21 +115,6 @@ pub fn write_atomic(
     Ok(())
 }
 
-/// Prints a report's `text` to stdout and, when `json_path` is given, writes `json()`
-/// there with [`write_atomic`] (the JSON is only made when it is asked for).
-pub fn publish(
-    text: &str,
-    json_path: Option<&Path>,
-    json: impl FnOnce() -> String,
-) -> Result<(), WriteError> {
-    print!("{text}");
-    let Some(path) = json_path else {
-        return Ok(());
-    };
-    let body = json();
-    write_atomic(path, |w| w.write_all(body.as_bytes()))
-}
-
 fn invalid(msg: String) -> io::Error {
     io::Error::new(io::ErrorKind::InvalidInput, msg)
 }
@@ -204,6 +189,15 @@ pub enum MeshFormat {
 }
 
 impl MeshFormat {
+    /// The position `p` as [`write_mesh`] stores it in this format: PLY's
+    /// `float` rounds each coordinate to `f32`; OBJ and OFF keep the `f64`.
+    pub fn stored(self, p: [f64; 3]) -> [f64; 3] {
+        match self {
+            MeshFormat::Ply => p.map(|c| c as f32 as f64),
+            MeshFormat::Obj | MeshFormat::Off => p,
+        }
+    }
+
     /// The format named by the extension of `path` (case-insensitive).
     pub fn from_path(path: &Path) -> Result<MeshFormat, String> {
         let ext = path
@@ -324,6 +318,32 @@ mod tests {
         assert_eq!(&out[end + 15..end + 19], &7u32.to_le_bytes());
         let head = std::str::from_utf8(&out[..end]).unwrap();
         assert!(head.contains("property uint cluster\n"), "{head}");
+    }
+
+    #[test]
+    fn a_written_mesh_reads_back_at_the_positions_stored_says() {
+        // Coordinates that f32 cannot hold: PLY rounds them, OBJ and OFF not.
+        let v = [
+            [0.1, 1e7 + 0.3, -2.0 / 3.0],
+            [1.0 / 3.0, 2.0, 3.0],
+            [4.0, 5.000_000_1, 6.0],
+        ];
+        let t = [[0, 1, 2]];
+        for (fmt, parse) in [
+            (
+                MeshFormat::Ply,
+                crate::io::ply::parse_mesh as fn(&[u8]) -> _,
+            ),
+            (MeshFormat::Obj, crate::io::obj::parse_mesh),
+            (MeshFormat::Off, crate::io::off::parse_mesh),
+        ] {
+            let mut out = Vec::new();
+            write_mesh(&mut out, fmt, &v, &t).unwrap();
+            let (read, _) = parse(&out).unwrap();
+            let stored: Vec<[f64; 3]> = v.iter().map(|&p| fmt.stored(p)).collect();
+            assert_eq!(read, stored, "{fmt:?}");
+        }
+        assert_ne!(MeshFormat::Ply.stored(v[0]), v[0]);
     }
 
     #[test]

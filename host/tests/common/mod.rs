@@ -48,14 +48,10 @@ pub const SMALL: [&str; 6] = [
     "120",
 ];
 
-/// The value of a numeric field of a JSON report (`"key": value`).
+/// The value of a top-level numeric field of a JSON report.
 pub fn field(report: &str, key: &str) -> f64 {
-    let at = report
-        .find(&format!("\"{key}\": "))
-        .unwrap_or_else(|| panic!("{key} missing from {report}"));
-    let rest = &report[at + key.len() + 4..];
-    rest[..rest.find([',', '\n']).unwrap()]
-        .trim()
-        .parse()
-        .unwrap()
+    let v: serde_json::Value = serde_json::from_str(report).unwrap();
+    v[key]
+        .as_f64()
+        .unwrap_or_else(|| panic!("{key} missing or not a number in {report}"))
 }
