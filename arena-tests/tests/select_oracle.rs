@@ -560,8 +560,10 @@ fn bnb_matches_the_mip_on_random_small_instances() {
 
 /// Sphere instances of the size the selection meets in the pipeline, with edges only and with
 /// their fold groups: the B&B proves them optimal and agrees with the MIP. Prints
-/// what it took (`--nocapture`).
+/// what it took (`--nocapture`). Minutes with the MIP: CI runs it once, in
+/// release.
 #[test]
+#[ignore = "slow oracle (minutes): CI runs it in release"]
 fn bnb_matches_the_mip_on_sphere_candidates() {
     let mut rng = Rng(0x5fe5e);
     // (points, neighbours, surface, also with fold groups).
@@ -586,7 +588,8 @@ fn bnb_matches_the_mip_on_sphere_candidates() {
             let (sel, st) = run(&inst, 1_000_000);
             let bnb = t.elapsed();
             let t = Instant::now();
-            let exact = mip_optimum(&inst, Duration::from_secs(20));
+            // The largest took the MIP 20 s on a loaded machine.
+            let exact = mip_optimum(&inst, Duration::from_secs(90));
             let mip = t.elapsed();
             eprintln!(
             "sphere {i} ({n} points, k {k}, {surface:?}, {what}): {} facets, {} edges, {} groups -> {} selected, objective {:.4}; \
@@ -727,12 +730,9 @@ fn piece(p: &SelectionProblem<'_>, seed: usize, size: usize) -> Instance {
 /// Pieces of 100 to 350 facets cut from the selection problems the pipeline builds
 /// for the shared clouds (250 clusters): whenever the B&B reports optimal, its
 /// objective is the MIP's optimum; otherwise its upper bound is not below it.
-/// Skipped when `../shared` is absent.
+/// Skipped when `../shared` is absent. Minutes: CI runs it once, in release.
 #[test]
-#[cfg_attr(
-    not(shared_data),
-    ignore = "needs ../shared/data/clouds, not found when this crate was built"
-)]
+#[ignore = "slow oracle (minutes, needs ../shared/data/clouds): CI runs it in release"]
 fn bnb_matches_the_mip_on_pieces_of_the_shared_clouds() {
     let Some(files) = shared_clouds() else { return };
     let params = Params {
