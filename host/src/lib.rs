@@ -2,6 +2,7 @@
 //! No algorithm lives here; see `vsaqem-core`.
 
 pub mod args;
+pub mod attributes;
 pub mod clean;
 pub mod cli;
 pub mod cmd;

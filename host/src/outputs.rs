@@ -2,10 +2,11 @@
 //! not have written its result, or would have written it over its own input,
 //! fails at once instead, naming the path once and what is wrong with it.
 //!
-//! `-` (standard output) passes every check. A target that exists and is not a
-//! regular file (`/dev/null`, a pipe) is written in place, so only its
-//! existence is checked.
+//! `-` (standard output) passes every check, but not as both targets. A
+//! target that exists and is not a regular file (`/dev/null`, a pipe) is
+//! written in place, so only its existence is checked.
 
+use crate::io::is_stdio;
 use std::fs;
 use std::path::{Path, PathBuf};
 
@@ -32,6 +33,11 @@ pub fn check_outputs(
         writable(flag, path)?;
     }
     if let Some(report) = report {
+        if is_stdio(output) && is_stdio(report) {
+            return Err(
+                "-o - and --report - both name standard output; give the report a file".to_string(),
+            );
+        }
         if same_file(output, report) {
             return Err(format!(
                 "{}: --report names the same file as -o; give the report another name",
@@ -40,11 +46,6 @@ pub fn check_outputs(
         }
     }
     Ok(())
-}
-
-/// `-`: standard input or output.
-fn is_stdio(p: &Path) -> bool {
-    p.as_os_str() == "-"
 }
 
 /// Whether `a` and `b` are one regular file (existing or to be made): the same
@@ -186,6 +187,9 @@ mod tests {
     #[test]
     fn devices_and_stdout_pass() {
         check_outputs(None, Path::new("-"), None).unwrap();
+        check_outputs(Some(Path::new("-")), Path::new("-"), None).unwrap();
+        let e = check_outputs(None, Path::new("-"), Some(Path::new("-"))).unwrap_err();
+        assert!(e.contains("both name standard output"), "{e}");
         #[cfg(unix)]
         check_outputs(
             Some(Path::new("/dev/null")),

@@ -14,7 +14,8 @@
 use crate::args::{InputArgs, MemoryArgs};
 use crate::eval::{check_solid, Solid, Topology, Validity};
 use crate::input::{Source, SAMPLE_SEED};
-use crate::io::write_atomic;
+use crate::io::write::mesh::f32_step;
+use crate::io::{is_stdio, write_to, Coords, MeshLayout, Precision};
 use crate::progress::{StageClock, Timings};
 use crate::stdout;
 use serde::Serialize;
@@ -51,20 +52,27 @@ impl Header {
     }
 }
 
-/// Prints a report's `text` to stdout and, when `json_path` is given, writes
-/// `json()` there with [`write_atomic`] (the JSON is only made when it is asked
-/// for). A stdout that cannot be written (closed, full) is an error.
+/// Prints a report's `text` and, when `json_path` is given, writes `json()`
+/// there with [`write_to`] (the JSON is only made when it is asked for). The
+/// text goes to stdout, or to stderr when stdout carries the output (`output`
+/// or `json_path` is `-`). A stream that cannot be written (closed, full) is
+/// an error.
 pub fn publish(
     text: &str,
+    output: &Path,
     json_path: Option<&Path>,
     json: impl FnOnce() -> Result<String, String>,
 ) -> Result<(), String> {
-    stdout::print(text)?;
+    if is_stdio(output) || json_path.is_some_and(is_stdio) {
+        stdout::eprint(text)?;
+    } else {
+        stdout::print(text)?;
+    }
     let Some(path) = json_path else {
         return Ok(());
     };
     let body = json()?;
-    write_atomic(path, |w| w.write_all(body.as_bytes())).map_err(|e| e.to_string())
+    write_to(path, |w| w.write_all(body.as_bytes()))
 }
 
 /// `report` as indented JSON, ending in a newline.
@@ -694,6 +702,117 @@ impl MeshCheck {
     }
 }
 
+/// The mesh file a run wrote: its format, how it holds coordinates and how
+/// far that moved the vertices, and what it carries beside them.
+#[derive(Clone, Debug, Serialize)]
+pub struct FileReport {
+    /// `ply`, `obj`, `off`, `stl` or `glb`.
+    pub format: &'static str,
+    /// `--precision` as given: `auto`, `f32` or `f64`.
+    pub precision: &'static str,
+    /// How the file holds coordinates: `f32`, `f64`, or `f32_offset` (GLB:
+    /// `float32` offsets from `origin`, the node's translation).
+    pub coordinates: Coords,
+    /// The origin of `f32_offset` coordinates, in file units (`null` otherwise).
+    pub origin: Option<[f64; 3]>,
+    /// The spacing of `float32` values at the mesh's largest coordinate, in
+    /// file units: what rounding to `float32` moves a coordinate by, at most
+    /// half of it.
+    pub f32_step: f64,
+    /// The largest such spacing `--precision auto` writes as `float32`: 1 % of
+    /// the tolerance times the diagonal, in file units.
+    pub f32_step_allowed: f64,
+    /// The farthest a vertex is from its position as stored, in file units (0
+    /// where the file keeps every digit).
+    pub rounding_max: f64,
+    /// Whether the file holds a normal at each vertex (from the mesh).
+    pub normals: bool,
+    /// Whether the file holds a colour at each vertex (the input's colours,
+    /// averaged per cluster).
+    pub colors: bool,
+}
+
+impl FileReport {
+    /// The report of `vertices` (file coordinates) written in `layout`, chosen
+    /// under `precision` with `allowed` the largest `float32` step `auto`
+    /// takes; `normals` and `colors` say what the file holds beside them.
+    pub fn new(
+        layout: &MeshLayout,
+        precision: Precision,
+        vertices: &[[f64; 3]],
+        allowed: f64,
+        normals: bool,
+        colors: bool,
+    ) -> Self {
+        let largest = vertices
+            .iter()
+            .flatten()
+            .fold(0.0f64, |m, c| m.max(c.abs()));
+        let rounding_max = vertices
+            .iter()
+            .map(|&p| crate::geom::length(crate::geom::sub(layout.stored(p), p)))
+            .fold(0.0f64, f64::max);
+        FileReport {
+            format: layout.format().name(),
+            precision: precision.name(),
+            coordinates: layout.coords(),
+            origin: layout.origin(),
+            f32_step: f32_step(largest),
+            f32_step_allowed: allowed,
+            rounding_max,
+            normals,
+            colors,
+        }
+    }
+
+    /// Whether the file holds `float32` coordinates where `auto` would not
+    /// have (`--precision f32`, or STL): the run warns.
+    pub fn coarser_than_auto(&self) -> bool {
+        self.coordinates == Coords::F32 && self.f32_step > self.f32_step_allowed
+    }
+
+    /// The `file` line.
+    pub fn text(&self) -> String {
+        let format = match self.format {
+            "ply" => "binary PLY",
+            "obj" => "OBJ",
+            "off" => "OFF",
+            "stl" => "binary STL",
+            "glb" => "glTF binary (GLB)",
+            other => other,
+        };
+        let coords = match (self.coordinates, self.origin) {
+            (Coords::F32Offset, Some([x, y, z])) => {
+                format!("float32 offsets from an origin at ({x}, {y}, {z})")
+            }
+            (Coords::F64, _) => "float64 coordinates".to_string(),
+            _ => "float32 coordinates".to_string(),
+        };
+        let against = if self.f32_step > self.f32_step_allowed {
+            "over"
+        } else {
+            "within"
+        };
+        let mut extra = String::new();
+        if self.normals {
+            extra.push_str("; vertex normals");
+        }
+        if self.colors {
+            extra.push_str("; colours of the input averaged per cluster");
+        }
+        let moved = if self.rounding_max > 0.0 {
+            format!("vertices moved by up to {:.3e}", self.rounding_max)
+        } else {
+            "no vertex moved".to_string()
+        };
+        format!(
+            "file       {format}, {coords} (float32 steps {:.3e} at the largest coordinate, \
+             {against} the {:.3e} allowed; {moved}){extra}\n",
+            self.f32_step, self.f32_step_allowed
+        )
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -808,6 +927,52 @@ mod tests {
         assert_eq!(fields, 27 + 1 + 2);
         let v = serde_json::to_value(ParamsReport::new(&params, false, run)).unwrap();
         assert!(v.get("meshing").is_none());
+    }
+
+    #[test]
+    fn the_file_line_and_fields_say_how_the_coordinates_were_stored() {
+        use crate::io::MeshFormat;
+        let v = [
+            [500_000.0, 4_000_000.1, 100.0],
+            [500_001.0, 4_000_000.0, 99.0],
+        ];
+        let allowed = 0.002;
+        let layout = |p| MeshLayout::choose(MeshFormat::Ply, p, &v, allowed).unwrap();
+        let auto = FileReport::new(
+            &layout(Precision::Auto),
+            Precision::Auto,
+            &v,
+            allowed,
+            true,
+            false,
+        );
+        assert_eq!(auto.coordinates, Coords::F64);
+        assert!(!auto.coarser_than_auto());
+        assert!(
+            auto.text().starts_with(
+                "file       binary PLY, float64 coordinates (float32 steps 2.500e-1 at the \
+                 largest coordinate, over the 2.000e-3 allowed; no vertex moved); vertex normals\n"
+            ),
+            "{}",
+            auto.text()
+        );
+        let f32 = FileReport::new(
+            &layout(Precision::F32),
+            Precision::F32,
+            &v,
+            allowed,
+            false,
+            true,
+        );
+        assert!(f32.coarser_than_auto());
+        assert!(f32.rounding_max > allowed && f32.rounding_max <= 0.125 * 3f64.sqrt());
+        assert!(f32
+            .text()
+            .ends_with("; colours of the input averaged per cluster\n"));
+        let json = serde_json::to_value(&f32).unwrap();
+        assert_eq!(json["coordinates"], "f32");
+        assert_eq!(json["precision"], "f32");
+        assert_eq!(json["origin"], serde_json::Value::Null);
     }
 
     #[test]

@@ -357,8 +357,18 @@ fn where_a_run_writes_is_checked_before_any_work_and_named_once() {
             d.join("dir.ply"),
         ),
         (
-            vec!["-o".into(), d.join("mesh.stl").into()],
+            vec!["-o".into(), d.join("mesh.wrl").into()],
             "unknown mesh extension",
+            d.join("mesh.wrl"),
+        ),
+        (
+            vec![
+                "-o".into(),
+                d.join("mesh.stl").into(),
+                "--precision".into(),
+                "f64".into(),
+            ],
+            "STL holds float32 coordinates only",
             d.join("mesh.stl"),
         ),
     ];

@@ -17,7 +17,7 @@ use std::fs;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 use vsaqem::input::sample;
-use vsaqem::io::{lzf, read_cloud, write_atomic, write_mesh, MeshFormat};
+use vsaqem::io::{lzf, read_cloud, write_atomic, write_mesh, MeshFormat, MeshLayout, MeshOut};
 use vsaqem_core::sample::Shape;
 
 fn dir(name: &str) -> PathBuf {
@@ -720,7 +720,10 @@ fn meshes_are_clouds_of_their_vertices() {
         ("ply", MeshFormat::Ply),
     ] {
         let p = d.join(format!("sphere.{ext}"));
-        write_atomic(&p, |w| write_mesh(w, format, &v, &t)).unwrap();
+        write_atomic(&p, |w| {
+            write_mesh(w, &MeshLayout::plain(format), &MeshOut::new(&v, &t))
+        })
+        .unwrap();
     }
     put(&d, "sphere.stl", stl_binary(&v, &t));
     put(&d, "ascii.stl", stl_ascii(&v, &t));
@@ -837,8 +840,22 @@ fn a_shared_cloud_converted_to_laz_xyz_and_organised_pcd_keeps_its_accuracy() {
     e57_file(&e57, &pts, usize::MAX, [0.0; 3]);
     // Meshes without faces: their vertices are the points.
     let (obj, off) = (d.join("bunny.obj"), d.join("bunny.off"));
-    write_atomic(&obj, |w| write_mesh(w, MeshFormat::Obj, &pts, &[])).unwrap();
-    write_atomic(&off, |w| write_mesh(w, MeshFormat::Off, &pts, &[])).unwrap();
+    write_atomic(&obj, |w| {
+        write_mesh(
+            w,
+            &MeshLayout::plain(MeshFormat::Obj),
+            &MeshOut::new(&pts, &[]),
+        )
+    })
+    .unwrap();
+    write_atomic(&off, |w| {
+        write_mesh(
+            w,
+            &MeshLayout::plain(MeshFormat::Off),
+            &MeshOut::new(&pts, &[]),
+        )
+    })
+    .unwrap();
     let base = reconstruct(&ply, &[], &d.join("ply.mesh.obj"));
     let key = |r: &str, k: &str| field(r, k);
     println!(

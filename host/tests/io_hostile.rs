@@ -14,6 +14,7 @@ use std::time::{Duration, Instant};
 
 use vsaqem::io::{
     read_cloud, read_mesh, write_atomic, write_mesh, write_points_ply, Cloud, MeshFormat,
+    MeshLayout, MeshOut,
 };
 
 fn dir(name: &str) -> PathBuf {
@@ -122,7 +123,10 @@ fn obj_and_off_round_trip_exactly() {
     for name in ["m.obj", "m.OFF"] {
         let path = d.join(name);
         let fmt = MeshFormat::from_path(&path).unwrap();
-        write_atomic(&path, |w| write_mesh(w, fmt, &v, &t)).unwrap();
+        write_atomic(&path, |w| {
+            write_mesh(w, &MeshLayout::plain(fmt), &MeshOut::new(&v, &t))
+        })
+        .unwrap();
         let (v2, t2) = read_mesh(&path).unwrap();
         assert_eq!(v2, v, "{name}: f64 coordinates must survive text exactly");
         assert_eq!(t2, t, "{name}");
@@ -134,7 +138,14 @@ fn ply_mesh_round_trips_with_f32_vertices() {
     let d = dir("ply_mesh");
     let (v, t) = sample_mesh();
     let path = d.join("m.ply");
-    write_atomic(&path, |w| write_mesh(w, MeshFormat::Ply, &v, &t)).unwrap();
+    write_atomic(&path, |w| {
+        write_mesh(
+            w,
+            &MeshLayout::plain(MeshFormat::Ply),
+            &MeshOut::new(&v, &t),
+        )
+    })
+    .unwrap();
     let (v2, t2) = read_mesh(&path).unwrap();
     let v32: Vec<[f64; 3]> = v.iter().map(|p| p.map(|c| c as f32 as f64)).collect();
     assert_eq!(v2, v32);

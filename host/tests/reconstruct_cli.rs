@@ -12,7 +12,7 @@ fn dir(name: &str) -> PathBuf {
 #[test]
 fn an_unknown_output_format_fails_before_any_work() {
     let d = dir("format");
-    let out = d.join("mesh.stl");
+    let out = d.join("mesh.wrl");
     let r = bin()
         .args(["reconstruct", "-q"])
         .args(SMALL)
@@ -23,7 +23,7 @@ fn an_unknown_output_format_fails_before_any_work() {
     let stderr = String::from_utf8_lossy(&r.stderr);
     assert_eq!(r.status.code(), Some(1), "{stderr}");
     assert!(
-        stderr.contains("mesh.stl") && stderr.contains("ply"),
+        stderr.contains("mesh.wrl") && stderr.contains(".ply, .obj, .off, .stl, .glb"),
         "{stderr}"
     );
     assert!(
@@ -36,7 +36,7 @@ fn an_unknown_output_format_fails_before_any_work() {
 #[test]
 fn every_output_format_holds_the_reported_mesh() {
     let d = dir("formats");
-    for ext in ["ply", "obj", "off"] {
+    for ext in ["ply", "obj", "off", "stl"] {
         let out = d.join(format!("mesh.{ext}"));
         let json = d.join(format!("report_{ext}.json"));
         let r = run_with_report("reconstruct", SMALL, &out, &json);

@@ -178,6 +178,12 @@ fn reports_of_cluster_and_reconstruct_match_the_schema() {
         ("reconstruct", vec![cloud, "--clusters", "80"], "file.obj"),
         (
             "reconstruct",
+            vec![cloud, "--clusters", "80", "--precision", "f64"],
+            "file.glb",
+        ),
+        ("reconstruct", SMALL.to_vec(), "sample.stl"),
+        (
+            "reconstruct",
             vec![
                 "--sample",
                 "hemisphere",
@@ -236,6 +242,14 @@ fn the_checker_rejects_a_report_that_breaks_the_schema() {
         (
             "another version",
             Box::new(|r| r["schema_version"] = 2.into()),
+        ),
+        (
+            "an unknown format",
+            Box::new(|r| r["file"]["format"] = "gltf".into()),
+        ),
+        (
+            "an origin that is not numbers",
+            Box::new(|r| r["file"]["origin"] = "centre".into()),
         ),
         (
             "an unknown stage",

@@ -3,7 +3,7 @@
 use crate::args::{CleanArgs, ClusterArgs, InputArgs, MemoryArgs};
 use crate::clean::{read_and_clean, Cleaned, RunBytes};
 use crate::input::Prepared;
-use crate::io::{write_atomic, write_points_ply};
+use crate::io::{write_points_ply, write_to};
 use crate::outputs::check_outputs;
 use crate::progress::StageClock;
 use crate::report::{
@@ -25,12 +25,14 @@ pub struct Cmd {
     #[command(flatten)]
     pub cluster: ClusterArgs,
     /// Output PLY: input points coloured by cluster (property `cluster`), then the
-    /// generators in black (not the input; its directory must exist and be
-    /// writable, checked before any work).
+    /// generators in black; - writes it to standard output and the report's
+    /// text to standard error. Not the input; its directory must exist and be
+    /// writable, checked before any work.
     #[arg(short, long, help_heading = "Output")]
     pub output: PathBuf,
     /// Also write the report as JSON to this file (not the input nor the
-    /// output; layout: host/report.schema.json).
+    /// output; layout: host/report.schema.json); - writes it to standard
+    /// output and the text to standard error.
     #[arg(long, value_name = "JSON", help_heading = "Output")]
     pub report: Option<PathBuf>,
     #[command(flatten)]
@@ -122,7 +124,7 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
             c.max_error_relative * 100.0
         );
     }
-    publish(&report.text(), cmd.report.as_deref(), || {
+    publish(&report.text(), &cmd.output, cmd.report.as_deref(), || {
         report_json(&report)
     })
 }
@@ -141,10 +143,9 @@ fn write_clusters(path: &Path, input: &Prepared, out: &Clustered) -> Result<(), 
     let mut colours: Vec<[u8; 3]> = ids.iter().map(|&l| label_colour(l)).collect();
     colours.extend(std::iter::repeat_n([0, 0, 0], gens.len()));
     ids.extend(0..gens.len() as u32);
-    write_atomic(path, |w| {
+    write_to(path, |w| {
         write_points_ply(w, &pts, &colours, Some(("cluster", &ids)))
     })
-    .map_err(|e| e.to_string())
 }
 
 /// A bright, deterministic colour for cluster `label`.

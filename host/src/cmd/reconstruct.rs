@@ -1,13 +1,16 @@
-//! `vsaqem reconstruct`: point cloud to mesh (PLY, OBJ or OFF by extension).
+//! `vsaqem reconstruct`: point cloud to mesh (PLY, OBJ, OFF, STL or GLB by
+//! extension; `-o -`: PLY on standard output).
 
 use crate::args::{CleanArgs, ClusterArgs, InputArgs, MemoryArgs};
+use crate::attributes::{vertex_colors, vertex_normals};
 use crate::clean::{read_and_clean, Cleaned, RunBytes};
-use crate::io::{write_atomic, write_mesh, MeshFormat};
+use crate::io::write::mesh::AUTO_F32_SHARE;
+use crate::io::{write_mesh, write_to, MeshFormat, MeshLayout, MeshOut, Precision};
 use crate::outputs::check_outputs;
 use crate::progress::StageClock;
 use crate::report::{
-    publish, report_json, source, ClusteringReport, Header, InputReport, MeshCheck, ParamsReport,
-    RunParams, RunReport, StagePeaks,
+    publish, report_json, source, ClusteringReport, FileReport, Header, InputReport, MeshCheck,
+    ParamsReport, RunParams, RunReport, StagePeaks,
 };
 use clap::Args;
 use serde::Serialize;
@@ -88,12 +91,24 @@ pub struct Cmd {
     pub cluster: ClusterArgs,
     #[command(flatten)]
     pub mesh: MeshArgs,
-    /// Output mesh: .ply, .obj or .off (not the input; its directory must
-    /// exist and be writable, checked before any work).
+    /// Output mesh: .ply (binary, with vertex normals and the input's
+    /// colours), .obj (with normals), .off, .stl (binary) or .glb (glTF binary,
+    /// with normals and colours); - writes PLY to standard output and the
+    /// report's text to standard error. Not the input; its directory must exist
+    /// and be writable, checked before any work.
     #[arg(short, long, default_value = "mesh.ply", help_heading = "Output")]
     pub output: PathBuf,
+    /// Coordinates of the output: auto writes float32 unless the spacing of
+    /// float32 values at the mesh's largest coordinate is over 1 % of the
+    /// tolerance (--tolerance × the diagonal; e.g. clouds at UTM coordinates),
+    /// then float64 (PLY double; GLB float32 offsets from a float64 origin, the
+    /// node's translation); OBJ and OFF keep every digit. f32 or f64 forces it
+    /// (STL holds float32 only). The report's file line says what was written.
+    #[arg(long, value_enum, value_name = "P", default_value_t = Precision::Auto, help_heading = "Output")]
+    pub precision: Precision,
     /// Also write the report as JSON to this file (not the input nor the
-    /// output; layout: host/report.schema.json).
+    /// output; layout: host/report.schema.json); - writes it to standard
+    /// output and the text to standard error.
     #[arg(long, value_name = "JSON", help_heading = "Output")]
     pub report: Option<PathBuf>,
     #[command(flatten)]
@@ -129,6 +144,9 @@ impl Cmd {
 /// Run the command.
 pub fn run(cmd: &Cmd) -> Result<(), String> {
     let format = MeshFormat::from_path(&cmd.output)?;
+    format
+        .coords(cmd.precision, false)
+        .map_err(|e| format!("{}: {e}", cmd.output.display()))?;
     check_outputs(
         cmd.input.input.as_deref(),
         &cmd.output,
@@ -173,21 +191,49 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
         }
         e => format!("{}: {e}", input.name),
     })?;
-    // The vertices in file coordinates as the file holds them: the check is of
-    // the mesh written, not of a more precise one.
+    let diag = out.clustered.bounds.diag;
+    let diagonal = diag as f64 * input.frame.scale;
+    // The vertices in file coordinates, in f64; how the file holds them
+    // depends on how far from the origin they lie.
     let vertices: Vec<[f64; 3]> = out
         .mesh
         .vertices
         .iter()
-        .map(|&v| format.stored(input.frame.to_file(v)))
+        .map(|&v| input.frame.to_file(v))
         .collect();
     let triangles = out.mesh.triangles;
-    let check = clock.time("check", || MeshCheck::new(&vertices, triangles));
+    let allowed = AUTO_F32_SHARE * tolerance(&params) * diagonal;
+    let layout = MeshLayout::choose(format, cmd.precision, &vertices, allowed)
+        .map_err(|e| format!("{}: {e}", cmd.output.display()))?;
+    let normals = format
+        .has_vertex_normals()
+        .then(|| vertex_normals(&vertices, triangles));
+    let colors = input
+        .colors
+        .as_ref()
+        .filter(|_| format.has_colors())
+        .map(|c| vertex_colors(out.clustered.clusters.labels, c, out.mesh.vertex_cluster));
+    let file = FileReport::new(
+        &layout,
+        cmd.precision,
+        &vertices,
+        allowed,
+        normals.is_some(),
+        colors.is_some(),
+    );
+    // The check is of the mesh as the file holds it, not of a more precise one.
+    let stored: Vec<[f64; 3]> = vertices.iter().map(|&p| layout.stored(p)).collect();
+    let check = clock.time("check", || MeshCheck::new(&stored, triangles));
+    drop(stored);
+    let mesh = MeshOut {
+        vertices: &vertices,
+        triangles,
+        normals: normals.as_deref(),
+        colors: colors.as_deref(),
+    };
     clock.time("write", || {
-        write_atomic(&cmd.output, |w| write_mesh(w, format, &vertices, triangles))
-            .map_err(|e| e.to_string())
+        write_to(&cmd.output, |w| write_mesh(w, &layout, &mesh))
     })?;
-    let diag = out.clustered.bounds.diag;
     let cs = &out.clustered.stats;
     let report = ReconstructReport {
         header: Header::new("reconstruct"),
@@ -199,7 +245,7 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
             input.normals.is_some(),
             stats.as_ref(),
             &params,
-            diag as f64 * input.frame.scale,
+            diagonal,
         ),
         params: ParamsReport::new(&params, true, RunParams::of(&cmd.memory)),
         clustering: ClusteringReport::new(&cs.cluster, &params, input.points.len()),
@@ -224,6 +270,7 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
             &cmd.output,
         ),
         mesh: check,
+        file,
     };
     let (c, m) = (&report.clustering, &report.meshing);
     if let Some((why, true)) = c.tolerance_unmet(params.split_rounds) {
@@ -247,9 +294,37 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
             report.max_error_stop(),
         );
     }
-    publish(&report.text(), cmd.report.as_deref(), || {
+    if report.file.coarser_than_auto() {
+        eprintln!(
+            "warning: {}: {} holds float32 coordinates, which moved vertices by up to {:.3e} \
+             (float32 steps {:.3e} at the largest coordinate, over the {:.3e} that \
+             --precision auto allows); {}",
+            cmd.output.display(),
+            format.name().to_ascii_uppercase(),
+            report.file.rounding_max,
+            report.file.f32_step,
+            report.file.f32_step_allowed,
+            if format == MeshFormat::Stl {
+                "write .ply, .obj or .glb to keep them"
+            } else {
+                "--precision auto or f64 keeps them"
+            }
+        );
+    }
+    publish(&report.text(), &cmd.output, cmd.report.as_deref(), || {
         report_json(&report)
     })
+}
+
+/// The tolerance `--precision auto` measures `float32` against, fraction of
+/// the diagonal: `--tolerance`, or its default when splitting is off (0).
+fn tolerance(params: &Params) -> f64 {
+    let t = if params.tolerance > 0.0 {
+        params.tolerance
+    } else {
+        Params::default().tolerance
+    };
+    f64::from(t)
 }
 
 /// The report of a run, filled once from its results: its JSON is this struct
@@ -269,6 +344,8 @@ struct ReconstructReport {
     run: RunReport,
     /// The checks of the mesh written.
     mesh: MeshCheck,
+    /// The file written: format, coordinates, normals and colours.
+    file: FileReport,
 }
 
 /// What meshing gave (core's [`MeshingStats`], under the report's names):
@@ -477,6 +554,7 @@ impl ReconstructReport {
              border     {} clusters on the border of the data, {} boundary loops kept open along it\n\
              repair     {} holes closed with {} faces, {} left open; {} orientation clashes cut out; {} pinches re-meshed, {} thin parts joined, {} bubbles removed, {} vertices split; {} crossing or folded face pairs left\n\
              {}\
+             {}\
              {}",
             self.input.text(),
             cl.clusters,
@@ -518,6 +596,7 @@ impl ReconstructReport {
             m.split_vertices,
             m.tangled_pairs,
             self.mesh.text(),
+            self.file.text(),
             self.run.text(self.input.points, ""),
         )
     }

@@ -37,7 +37,10 @@ pub mod stl;
 pub mod write;
 pub mod xyz;
 
-pub use write::{write_atomic, write_mesh, write_points_ply, MeshFormat, WriteError};
+pub use write::{
+    write_atomic, write_mesh, write_points_ply, write_to, Coords, MeshFormat, MeshLayout, MeshOut,
+    Precision, WriteError,
+};
 
 /// A point cloud as read from a file, in the file's own units (`f64`).
 ///
@@ -74,6 +77,14 @@ pub struct ReadOptions {
     /// The columns of a text cloud (`--columns`), over its header or column count;
     /// for another format an error.
     pub columns: Option<xyz::Columns>,
+}
+
+/// The path that names standard input (and, for writers, standard output).
+pub const STDIO: &str = "-";
+
+/// Whether `path` is [`STDIO`].
+pub fn is_stdio(path: &Path) -> bool {
+    path.as_os_str() == STDIO
 }
 
 /// A cloud format, from the extension.
