@@ -3,7 +3,7 @@
 
 use crate::input::{self, Prepared};
 use crate::io::xyz::Columns;
-use crate::io::ReadOptions;
+use crate::io::{is_cloud_extension, ReadOptions, CLOUD_EXTENSIONS};
 use crate::progress::StageClock;
 use clap::{Args, ValueEnum};
 use std::mem::MaybeUninit;
@@ -17,8 +17,15 @@ use vsaqem_core::{Params, Partition, MAX_K};
 pub struct InputArgs {
     /// Point cloud to read: .ply, .xyz/.xyzn/.txt/.pts/.csv (text), .pcd, .las/.laz,
     /// .e57, or a mesh (.obj, .off, .stl; a PLY mesh too) whose vertices are the
-    /// points. Without it, a built-in generated sample is used.
+    /// points; - reads standard input (its format from --format, or else from
+    /// its first bytes). Without it, a built-in generated sample is used.
     pub input: Option<PathBuf>,
+    /// The input's format, as one of INPUT's extensions (e.g. ply, xyz, las),
+    /// over the file's extension; for - (standard input) over what its first
+    /// bytes say (a header of PLY, PCD, LAS/LAZ, E57, OFF, OBJ or STL, else
+    /// text columns).
+    #[arg(long, value_name = "EXT", value_parser = parse_format)]
+    pub format: Option<String>,
     /// Normals in the file: `use` them where finite and non-zero (core estimates
     /// the others from the neighbours), or `ignore` them all and estimate every
     /// normal (for normals that are noisy, or oriented inconsistently).
@@ -58,7 +65,21 @@ impl InputArgs {
     pub fn read_options(&self) -> ReadOptions {
         ReadOptions {
             columns: self.columns.clone(),
+            format: self.format.clone(),
         }
+    }
+}
+
+/// `--format`: an extension the cloud readers know, with or without its dot.
+fn parse_format(s: &str) -> Result<String, String> {
+    let ext = s.trim().trim_start_matches('.').to_ascii_lowercase();
+    if is_cloud_extension(&ext) {
+        Ok(ext)
+    } else {
+        Err(format!(
+            "'{s}' is not a cloud format: use one of {}",
+            CLOUD_EXTENSIONS.replace('.', "")
+        ))
     }
 }
 

@@ -1,6 +1,6 @@
 //! Where the points come from: a file, or a built-in generated sample.
 
-use crate::io::{read_cloud_with, Cloud, ReadOptions};
+use crate::io::{is_stdio, read_cloud_with, Cloud, ReadOptions};
 use crate::normalize::Frame;
 use crate::progress::StageClock;
 use serde::Serialize;
@@ -86,7 +86,12 @@ pub fn load(
     match path {
         Some(p) => {
             let cloud = read_cloud_with(p, options).map_err(|e| e.to_string())?;
-            Ok((p.display().to_string(), cloud))
+            let name = if is_stdio(p) {
+                "standard input".to_string()
+            } else {
+                p.display().to_string()
+            };
+            Ok((name, cloud))
         }
         None => {
             let name = Source::of(None, shape, points, noise, seed).to_string();
@@ -104,7 +109,7 @@ pub const SAMPLE_SEED: u64 = 1;
 #[derive(Clone, Debug, PartialEq, Serialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum Source {
-    /// A file, as named on the command line.
+    /// A file, as named on the command line (`-`: standard input).
     File {
         /// The path as given.
         path: String,
@@ -142,6 +147,7 @@ impl Source {
 impl fmt::Display for Source {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
+            Source::File { path } if path == crate::io::STDIO => f.write_str("standard input"),
             Source::File { path } => f.write_str(path),
             Source::Sample {
                 name,

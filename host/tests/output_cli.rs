@@ -1,13 +1,15 @@
 //! What `vsaqem reconstruct` writes, end to end: coordinates in `float64`
 //! where `float32` would lose the tolerance (georeferenced clouds), normals
-//! and colours on the vertices, binary STL and GLB.
+//! and colours on the vertices, binary STL and GLB, and standard input and
+//! output.
 
 mod common;
 use common::{bin, run_with_report, SMALL};
 
 use serde_json::Value;
+use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::process::Output;
+use std::process::{Output, Stdio};
 use vsaqem::io::{read_cloud, read_mesh};
 
 fn dir(name: &str) -> PathBuf {
@@ -272,4 +274,122 @@ fn stl_and_glb_hold_the_reported_mesh() {
     assert_eq!(r.status.code(), Some(1), "{stderr}");
     assert!(stderr.contains("f64.stl: STL holds float32"), "{stderr}");
     assert!(r.stdout.is_empty() && !d.join("f64.stl").exists());
+}
+
+/// `vsaqem ARGS` with `input` on standard input and stdout to `stdout` (piped
+/// when `None`).
+fn piped(args: &[&str], input: &[u8], stdout: Option<Stdio>) -> Output {
+    let mut child = bin()
+        .args(args)
+        .stdin(Stdio::piped())
+        .stdout(stdout.unwrap_or(Stdio::piped()))
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut stdin = child.stdin.take().unwrap();
+    // The child may fail before it reads everything: a broken pipe is fine.
+    let _ = stdin.write_all(input);
+    drop(stdin);
+    child.wait_with_output().unwrap()
+}
+
+#[test]
+fn a_cloud_on_standard_input_becomes_a_ply_on_standard_output() {
+    let d = dir("stdio");
+    let text = sphere(4000, [0.0; 3], 1.0, |_| [0; 3]);
+    // The same mesh from a file.
+    let cloud = d.join("cloud.xyz");
+    std::fs::write(&cloud, &text).unwrap();
+    let file = d.join("file.ply");
+    let cols = ["--columns", "x,y,z,_,_,_", "--clusters", "120"];
+    ok(&run_with_report(
+        "reconstruct",
+        [&[cloud.to_str().unwrap()], &cols[..]].concat(),
+        &file,
+        &d.join("file.json"),
+    ));
+    let json = d.join("stdin.json");
+    let args = [
+        &[
+            "reconstruct",
+            "-q",
+            "-",
+            "-o",
+            "-",
+            "--report",
+            json.to_str().unwrap(),
+        ],
+        &cols[..],
+    ]
+    .concat();
+    let r = piped(&args, text.as_bytes(), None);
+    ok(&r);
+    // Stdout is the PLY and nothing else; the report's text is on stderr.
+    let from_stdin = vsaqem::io::ply::parse_mesh(&r.stdout).unwrap();
+    assert_eq!(read_mesh(&file).unwrap(), from_stdin);
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert!(
+        stderr.contains("input      standard input: 4000 points"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("file       binary PLY, float32"),
+        "{stderr}"
+    );
+    let r = report(&json);
+    assert_eq!(r["output"], "-");
+    assert_eq!(
+        r["input"],
+        serde_json::json!({ "kind": "file", "path": "-" })
+    );
+    // A PLY on stdin is told by its header; --format names a format outright.
+    let mut ply = Vec::new();
+    let pts = read_cloud(&cloud).unwrap().positions;
+    vsaqem::io::write_points_ply(&mut ply, &pts, &[], None).unwrap();
+    let plain = ["reconstruct", "-q", "-", "-o", "-", "--clusters", "120"];
+    let r = piped(&plain, &ply, None);
+    ok(&r);
+    assert!(!vsaqem::io::ply::parse_mesh(&r.stdout).unwrap().1.is_empty());
+    let r = piped(&[&plain[..], &["--format", "xyz"]].concat(), &ply, None);
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(r.status.code(), Some(1), "{stderr}");
+    assert!(stderr.starts_with("error: standard input: "), "{stderr}");
+    assert!(r.stdout.is_empty());
+}
+
+#[test]
+fn bad_standard_input_and_a_full_standard_output_are_errors_not_panics() {
+    let args = ["reconstruct", "-q", "-", "-o", "-", "--clusters", "120"];
+    let r = piped(&args, b"", None);
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(r.status.code(), Some(1), "{stderr}");
+    assert_eq!(stderr, "error: standard input: no data\n");
+    let r = piped(&args, b"1 2 3\n4 5\n", None);
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(r.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.starts_with("error: standard input: line 2"),
+        "{stderr}"
+    );
+    // -o - and --report - cannot share stdout.
+    let r = piped(&[&args[..], &["--report", "-"]].concat(), b"", None);
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert!(stderr.contains("both name standard output"), "{stderr}");
+    // A disk that is full: the write fails, the process says so.
+    let Ok(full) = std::fs::OpenOptions::new().write(true).open("/dev/full") else {
+        eprintln!("skipped: no /dev/full");
+        return;
+    };
+    let text = sphere(4000, [0.0; 3], 1.0, |_| [0; 3]);
+    let r = piped(
+        &[&args[..], &["--columns", "x,y,z,_,_,_"]].concat(),
+        text.as_bytes(),
+        Some(full.into()),
+    );
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(r.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("cannot write to standard output") && !stderr.contains("panicked"),
+        "{stderr}"
+    );
 }

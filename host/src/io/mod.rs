@@ -77,6 +77,10 @@ pub struct ReadOptions {
     /// The columns of a text cloud (`--columns`), over its header or column count;
     /// for another format an error.
     pub columns: Option<xyz::Columns>,
+    /// The format, as an extension from [`CLOUD_EXTENSIONS`] without the dot
+    /// (`--format`), over the path's extension (or, for standard input, over
+    /// what its first bytes say).
+    pub format: Option<String>,
 }
 
 /// The path that names standard input (and, for writers, standard output).
@@ -85,6 +89,55 @@ pub const STDIO: &str = "-";
 /// Whether `path` is [`STDIO`].
 pub fn is_stdio(path: &Path) -> bool {
     path.as_os_str() == STDIO
+}
+
+/// Whether `ext` (lower case, no dot) is one of [`CLOUD_EXTENSIONS`].
+pub fn is_cloud_extension(ext: &str) -> bool {
+    CLOUD_EXTENSIONS
+        .split(", ")
+        .any(|e| e.strip_prefix('.') == Some(ext))
+}
+
+/// The format of a cloud without a name, from its first bytes, as the
+/// extension that names it: a PLY, LAS/LAZ (`LASF`), E57 (`ASTM-E57`), PCD
+/// (a first line, after `#` comments, that starts with `VERSION` or `FIELDS`),
+/// OFF or OBJ (a first statement `v`, `vn`, `f`, `o`, `g` or `mtllib`) header,
+/// or a binary STL (its length is the one its triangle count gives); anything
+/// else is read as text columns (`xyz`), whose reader names a line it cannot
+/// read.
+fn sniff(data: &[u8]) -> &'static str {
+    let starts = |magic: &[u8]| data.starts_with(magic);
+    if starts(b"ply\n") || starts(b"ply\r\n") {
+        return "ply";
+    }
+    if starts(b"LASF") {
+        return "las";
+    }
+    if starts(b"ASTM-E57") {
+        return "e57";
+    }
+    if let Some(n) = data.get(80..84) {
+        let count = u64::from(u32::from_le_bytes([n[0], n[1], n[2], n[3]]));
+        if 84 + 50 * count == data.len() as u64 {
+            return "stl";
+        }
+    }
+    let first = data
+        .split(|&b| b == b'\n')
+        .map(|l| l.trim_ascii())
+        .find(|l| !l.is_empty() && !l.starts_with(b"#"))
+        .unwrap_or_default();
+    let word = first
+        .split(|b| b.is_ascii_whitespace())
+        .next()
+        .unwrap_or_default();
+    match word {
+        b"VERSION" | b"FIELDS" => "pcd",
+        b"OFF" | b"COFF" | b"NOFF" | b"CNOFF" => "off",
+        b"v" | b"vn" | b"vt" | b"f" | b"o" | b"g" | b"mtllib" => "obj",
+        _ if first.starts_with(b"solid") => "stl",
+        _ => "xyz",
+    }
 }
 
 /// A cloud format, from the extension.
@@ -104,14 +157,36 @@ pub fn read_cloud(path: &Path) -> Result<Cloud, ReadError> {
     read_cloud_with(path, &ReadOptions::default())
 }
 
-/// Reads a point cloud, choosing the format from the extension (case-insensitive):
-/// `.ply`; `.xyz`, `.xyzn`, `.txt`, `.pts`, `.csv` (text, [`xyz`]); `.pcd`;
-/// `.las`, `.laz`; `.e57`; and the meshes `.obj`, `.off`, `.stl`, whose vertices are the
-/// points (a PLY mesh is read that way too).
+/// Reads a point cloud, choosing the format from `options.format` or else the
+/// extension (case-insensitive): `.ply`; `.xyz`, `.xyzn`, `.txt`, `.pts`, `.csv`
+/// (text, [`xyz`]); `.pcd`; `.las`, `.laz`; `.e57`; and the meshes `.obj`, `.off`,
+/// `.stl`, whose vertices are the points (a PLY mesh is read that way too).
+///
+/// `-` ([`STDIO`]) reads standard input to its end, its format from
+/// `options.format` or else from its first bytes (a PLY, PCD, LAS/LAZ, E57,
+/// OFF, OBJ or STL header; else text columns); errors then name it
+/// `standard input`.
 ///
 /// Cost: one read of the file plus one pass over its bytes.
 pub fn read_cloud_with(path: &Path, options: &ReadOptions) -> Result<Cloud, ReadError> {
-    let ext = extension(path);
+    let stdin = if is_stdio(path) {
+        let mut data = Vec::new();
+        io::Read::read_to_end(&mut io::stdin().lock(), &mut data)
+            .map_err(|e| ReadError::new(path, ReadErrorKind::Io(e)))?;
+        if data.is_empty() {
+            return Err(ReadError::new(path, ReadErrorKind::file("no data")));
+        }
+        Some(data)
+    } else {
+        None
+    };
+    let ext = match (&options.format, &stdin) {
+        (Some(f), _) => Some(f.to_ascii_lowercase()),
+        // Columns are named for text only.
+        (None, Some(_)) if options.columns.is_some() => Some("xyz".to_string()),
+        (None, Some(data)) => Some(sniff(data).to_string()),
+        (None, None) => extension(path),
+    };
     let format = match ext.as_deref() {
         Some("ply") => CloudFormat::Ply,
         Some("xyz" | "xyzn" | "txt" | "pts" | "csv") => CloudFormat::Text,
@@ -136,7 +211,10 @@ pub fn read_cloud_with(path: &Path, options: &ReadOptions) -> Result<Cloud, Read
             ),
         ));
     }
-    let data = load(path)?;
+    let data = match stdin {
+        Some(data) => data,
+        None => load(path)?,
+    };
     let cloud = match format {
         CloudFormat::Ply => ply::parse_cloud(&data),
         CloudFormat::Text => xyz::parse_cloud(&data, options.columns.as_ref()),
@@ -333,7 +411,11 @@ impl fmt::Display for ReadErrorKind {
 
 impl fmt::Display for ReadError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}: {}", self.path.display(), self.kind)
+        if is_stdio(&self.path) {
+            write!(f, "standard input: {}", self.kind)
+        } else {
+            write!(f, "{}: {}", self.path.display(), self.kind)
+        }
     }
 }
 
@@ -639,6 +721,38 @@ mod tests {
         let long = "x".repeat(100);
         let s = Shown(&long).to_string();
         assert!(s.len() < 50 && s.ends_with("...\""), "{s}");
+    }
+
+    #[test]
+    fn standard_input_is_told_by_its_first_bytes() {
+        let mut stl = vec![0u8; 84 + 50];
+        stl[80] = 1;
+        for (data, ext) in [
+            (&b"ply\nformat ascii 1.0\n"[..], "ply"),
+            (b"ply\r\nformat ascii 1.0\r\n", "ply"),
+            (b"LASF\0\0", "las"),
+            (b"ASTM-E57\0", "e57"),
+            (b"# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\n", "pcd"),
+            (b"FIELDS x y z\n", "pcd"),
+            (b"# a comment\n\nOFF\n3 1 0\n", "off"),
+            (b"# blender\nmtllib a.mtl\nv 1 2 3\n", "obj"),
+            (b"v 1 2 3\n", "obj"),
+            (&stl, "stl"),
+            (b"solid cube\n  facet normal 0 0 1\n", "stl"),
+            (b"1 2 3\n4 5 6\n", "xyz"),
+            (b"//X,Y,Z\n1,2,3\n", "xyz"),
+            (b"x y z r g b\n", "xyz"),
+            (b"\x00\x01binary junk", "xyz"),
+        ] {
+            assert_eq!(sniff(data), ext, "{:?}", String::from_utf8_lossy(data));
+        }
+    }
+
+    #[test]
+    fn standard_input_is_named_so_in_errors() {
+        let e = ReadError::new(Path::new("-"), ReadErrorKind::file("no data"));
+        assert_eq!(e.to_string(), "standard input: no data");
+        assert!(is_cloud_extension("laz") && !is_cloud_extension("glb"));
     }
 
     #[test]
