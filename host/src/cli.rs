@@ -65,7 +65,9 @@ fn finish(result: Result<(), String>) -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e}");
+            // Not `eprintln!`, which panics when stderr is a closed pipe (the
+            // error may be that stderr could not take the report's text).
+            let _ = stdout::eprint(&format!("error: {e}\n"));
             ExitCode::FAILURE
         }
     }

@@ -19,9 +19,9 @@ pub fn write(bytes: &[u8]) -> Result<(), String> {
 
 /// Runs `f` on a buffered stdout (64 KiB), then flushes it: a mesh written
 /// with `-o -` goes out in large writes, and any failure is the error
-/// returned. What `f` wrote before a failure has gone out; a reader of a
-/// pipe sees a truncated stream, which no format here mistakes for a whole
-/// file (each says its length in its header).
+/// returned. What `f` wrote before a failure has gone out: a reader of the
+/// pipe sees a truncated stream, which it cannot take for a whole file (a
+/// PLY's header gives its counts, a GLB's its length, JSON ends in a brace).
 pub fn write_with(f: impl FnOnce(&mut dyn Write) -> io::Result<()>) -> Result<(), String> {
     let mut out = BufWriter::with_capacity(1 << 16, io::stdout().lock());
     f(&mut out)

@@ -392,4 +392,18 @@ fn bad_standard_input_and_a_full_standard_output_are_errors_not_panics() {
         stderr.contains("cannot write to standard output") && !stderr.contains("panicked"),
         "{stderr}"
     );
+    // With -o - the report's text goes to stderr: a full stderr is an error
+    // too (exit 1; a panic would exit 101), though it cannot say so.
+    let full = std::fs::OpenOptions::new()
+        .write(true)
+        .open("/dev/full")
+        .unwrap();
+    let r = bin()
+        .args(["reconstruct", "-q", "-o", "-"])
+        .args(SMALL)
+        .stdout(Stdio::null())
+        .stderr(full)
+        .status()
+        .unwrap();
+    assert_eq!(r.code(), Some(1));
 }
