@@ -170,6 +170,19 @@ pub(super) fn edge_table<'s, 'b, S: Alloc<'b>>(
     Ok(table)
 }
 
+/// Edges of `faces` that only one face has.
+fn boundary_edges<'b, S: Alloc<'b>>(s: &S, faces: &[[u32; 3]]) -> Result<u32> {
+    let table = edge_table(s, faces)?;
+    let mut count = 0;
+    let mut i = 0;
+    while i < table.len() {
+        let run = faces_of(&table[i..], table[i].0).len().max(1);
+        count += u32::from(run == 1);
+        i += run;
+    }
+    Ok(count)
+}
+
 /// +1 if the cycle `c` runs `u -> v`, -1 if `v -> u`, 0 if it has no such edge.
 pub(super) fn dir(c: [u32; 3], u: u32, v: u32) -> i32 {
     for k in 0..3 {
@@ -648,6 +661,11 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
         };
         stats.vertices = nv as u32;
         stats.faces = nf as u32;
+        if stats.densified > 0 {
+            // A vertex added on a boundary edge splits it in two: count them
+            // on the final faces.
+            stats.boundary_edges = s.scratch(|t| boundary_edges(t, triangles))?;
+        }
         // Faces over gaps in the data (a tunnel the clusters straddle), by the
         // cluster whose walk found the gap's rim: the widest gap of each
         // cluster without a far point gets a generator after those.
