@@ -529,60 +529,54 @@ mod tests {
             .iter()
             .map(|g| [g[0] + 0.01, g[1] - 0.005, g[2]])
             .collect();
+        // One partition of `labels` (with `border`) by `generators`.
+        let part = |generators: &[V3],
+                    labels: &mut Vec<u32>,
+                    border: &mut Vec<u8>,
+                    start: Start,
+                    hooks: &dyn Progress,
+                    last: u16| {
+            arena
+                .scratch(|s| {
+                    numbered(
+                        s, &ctx, generators, &seeds, labels, border, start, hooks, last,
+                    )
+                })
+                .unwrap();
+        };
         let run = |hooks: &dyn Progress| {
-            let mut labels = vec![NONE; n];
-            let mut border = vec![1u8; n];
-            arena
-                .scratch(|s| {
-                    partition(
-                        s,
-                        &ctx,
-                        &generators,
-                        &seeds,
-                        &mut labels,
-                        &mut border,
-                        Start::Fresh,
-                        hooks,
-                    )
-                })
-                .unwrap();
+            let (mut labels, mut border) = (vec![NONE; n], vec![1u8; n]);
+            part(
+                &generators,
+                &mut labels,
+                &mut border,
+                Start::Fresh,
+                hooks,
+                u16::MAX - 1,
+            );
             let fresh = (labels.clone(), border.clone());
-            arena
-                .scratch(|s| {
-                    partition(
-                        s,
-                        &ctx,
-                        &moved,
-                        &seeds,
-                        &mut labels,
-                        &mut border,
-                        Start::Warm,
-                        hooks,
-                    )
-                })
-                .unwrap();
+            part(
+                &moved,
+                &mut labels,
+                &mut border,
+                Start::Warm,
+                hooks,
+                u16::MAX - 1,
+            );
             (fresh, (labels, border))
         };
         let (fresh, warm) = run(&Silent);
         // Numbered again every few sweeps (odd and even wraps): the same.
         for last in [5u16, 6] {
-            let mut labels = vec![NONE; n];
-            let mut border = vec![1u8; n];
-            arena
-                .scratch(|s| {
-                    numbered(
-                        s,
-                        &ctx,
-                        &generators,
-                        &seeds,
-                        &mut labels,
-                        &mut border,
-                        Start::Fresh,
-                        &Silent,
-                        last,
-                    )
-                })
-                .unwrap();
+            let (mut labels, mut border) = (vec![NONE; n], vec![1u8; n]);
+            part(
+                &generators,
+                &mut labels,
+                &mut border,
+                Start::Fresh,
+                &Silent,
+                last,
+            );
             assert_eq!(labels, fresh.0, "numbered again after sweep {last}");
         }
         assert_eq!(run(&Backwards), (fresh.clone(), warm.clone()));

@@ -11,7 +11,7 @@
 //!
 //! Cost: one pass over the points; memory is the file and the output.
 
-use super::{quiet_catch, At, Cloud, ReadErrorKind};
+use super::{decode_guarded, At, Cloud, ReadErrorKind};
 use ::e57::{CartesianCoordinate, E57Reader};
 use std::io::Cursor;
 
@@ -66,13 +66,7 @@ fn check_header(data: &[u8]) -> Result<()> {
 /// Parses an E57 cloud (the file's bytes).
 pub fn parse_cloud(data: Vec<u8>) -> Result<Cloud> {
     check_header(&data)?;
-    let mut done = 0u64;
-    match quiet_catch(|| decode(data, &mut done)) {
-        Ok(cloud) => cloud,
-        Err(_) => Err(ReadErrorKind::file(format!(
-            "E57: point {done}: the data is damaged (the E57 decoder gave up)"
-        ))),
-    }
+    decode_guarded(data, decode, "E57", "data", "E57 decoder")
 }
 
 /// Decodes every scan; `done` counts the points decoded, for a message.

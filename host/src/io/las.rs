@@ -16,7 +16,7 @@
 //!
 //! Cost: one pass over the points; memory is the file, the output and one batch.
 
-use super::{quiet_catch, At, Cloud, ReadErrorKind};
+use super::{decode_guarded, At, Cloud, ReadErrorKind};
 use ::las::{raw, PointDataBuilder, Reader};
 use std::io::Cursor;
 
@@ -149,13 +149,7 @@ fn check_header(data: &[u8]) -> Result<()> {
 /// Parses a LAS or LAZ cloud (the file's bytes).
 pub fn parse_cloud(data: Vec<u8>) -> Result<Cloud> {
     check_header(&data)?;
-    let mut done = 0u64;
-    match quiet_catch(|| decode(data, &mut done)) {
-        Ok(cloud) => cloud,
-        Err(_) => Err(ReadErrorKind::file(format!(
-            "LAS: point {done}: the compressed data is damaged (the LAZ decoder gave up)"
-        ))),
-    }
+    decode_guarded(data, decode, "LAS", "compressed data", "LAZ decoder")
 }
 
 /// Decodes every point; `done` counts those decoded, for a message.

@@ -474,6 +474,25 @@ pub(crate) fn quiet_catch<T>(f: impl FnOnce() -> T) -> std::thread::Result<T> {
     r
 }
 
+/// `decode(data, &mut done)` under [`quiet_catch`]: a panic of the decoder
+/// becomes the error `"{what}: point {done}: the {damaged} is damaged (the
+/// {decoder} gave up)"`, `done` being the points decoded before it.
+pub(crate) fn decode_guarded(
+    data: Vec<u8>,
+    decode: fn(Vec<u8>, &mut u64) -> Result<Cloud, ReadErrorKind>,
+    what: &str,
+    damaged: &str,
+    decoder: &str,
+) -> Result<Cloud, ReadErrorKind> {
+    let mut done = 0u64;
+    match quiet_catch(|| decode(data, &mut done)) {
+        Ok(cloud) => cloud,
+        Err(_) => Err(ReadErrorKind::file(format!(
+            "{what}: point {done}: the {damaged} is damaged (the {decoder} gave up)"
+        ))),
+    }
+}
+
 /// A token from a file, quoted and cut to a readable length for an error message.
 pub(crate) struct Shown<'a>(pub &'a str);
 
