@@ -11,7 +11,7 @@
 //! `#[ignore]`d (eight reconstructions of 35k points).
 
 mod common;
-use common::{bin, field, run_with_report};
+use common::{bin, cloud_err, field, run_with_report};
 
 use std::fs;
 use std::path::{Path, PathBuf};
@@ -73,27 +73,6 @@ fn reconstruct_fails(input: &Path, args: &[&str], needles: &[&str]) {
     for n in std::iter::once(&name).chain(needles) {
         assert!(stderr.contains(n), "'{n}' not in: {stderr}");
     }
-}
-
-/// Reads `path` expecting an error naming the file and every `details`, fast.
-fn read_err(path: &Path, details: &[&str]) -> String {
-    let t = Instant::now();
-    let r = read_cloud(path);
-    assert!(
-        t.elapsed() < Duration::from_secs(2),
-        "took {:?}",
-        t.elapsed()
-    );
-    let msg = match r {
-        Ok(c) => panic!("{} read as {} points", path.display(), c.positions.len()),
-        Err(e) => e.to_string(),
-    };
-    let name = path.file_name().unwrap().to_str().unwrap();
-    assert!(msg.contains(name), "message does not name {name}: {msg}");
-    for d in details {
-        assert!(msg.contains(d), "message lacks {d:?}: {msg}");
-    }
-    msg
 }
 
 // ---------------------------------------------------------------- writers
@@ -311,14 +290,14 @@ fn broken_las_and_laz_files_are_errors_naming_the_file() {
     // Legacy point count (byte 107) and the 1.4 count (byte 247).
     let mut b = las.clone();
     b[107..111].copy_from_slice(&4_000_000_000u32.to_le_bytes());
-    read_err(
+    cloud_err(
         &put(&d, "count.las", &b),
         &["header declares 4000000000 points of 20 bytes but only 80000 bytes"],
     );
     let mut b = las.clone();
     b[107..111].copy_from_slice(&0u32.to_le_bytes());
     b[247..255].copy_from_slice(&u64::MAX.to_le_bytes());
-    read_err(
+    cloud_err(
         &put(&d, "count64.las", &b),
         &["header declares 18446744073709551615 points"],
     );
@@ -326,24 +305,24 @@ fn broken_las_and_laz_files_are_errors_naming_the_file() {
     for (name, v) in [("zero_scale.las", 0.0f64), ("nan_scale.las", f64::NAN)] {
         let mut b = las.clone();
         b[131..139].copy_from_slice(&v.to_le_bytes());
-        read_err(
+        cloud_err(
             &put(&d, name, &b),
             &["x scale", "do not map to coordinates"],
         );
     }
-    read_err(
+    cloud_err(
         &put(&d, "short.las", &las[..las.len() - 7]),
         &["only 79993 bytes"],
     );
-    read_err(
+    cloud_err(
         &put(&d, "header.las", &las[..100]),
         &["ends inside the LAS header"],
     );
-    read_err(&put(&d, "text.las", "x y z\n"), &["not a LAS file"]);
+    cloud_err(&put(&d, "text.las", "x y z\n"), &["not a LAS file"]);
     // Offset to the point data (byte 96) past the end.
     let mut b = las.clone();
     b[96..100].copy_from_slice(&u32::MAX.to_le_bytes());
-    read_err(
+    cloud_err(
         &put(&d, "offset.las", &b),
         &["the header puts the points at byte 4294967295"],
     );
@@ -351,20 +330,20 @@ fn broken_las_and_laz_files_are_errors_naming_the_file() {
     let mut b = las.clone();
     b[235..243].copy_from_slice(&(las.len() as u64 - 10).to_le_bytes());
     b[243..247].copy_from_slice(&1u32.to_le_bytes());
-    read_err(
+    cloud_err(
         &put(&d, "evlr.las", &b),
         &["extended variable length record"],
     );
     // LAZ: a larger count than the data, a cut body, a chunk table of 2^32 chunks.
     let mut b = laz.clone();
     b[107..111].copy_from_slice(&4_000_000_000u32.to_le_bytes());
-    read_err(&put(&d, "count.laz", &b), &["LAS: point"]);
-    read_err(&put(&d, "cut.laz", &laz[..laz.len() / 2]), &["chunk table"]);
+    cloud_err(&put(&d, "count.laz", &b), &["LAS: point"]);
+    cloud_err(&put(&d, "cut.laz", &laz[..laz.len() / 2]), &["chunk table"]);
     let start = u32::from_le_bytes(laz[96..100].try_into().unwrap()) as usize;
     let table = u64::from_le_bytes(laz[start..start + 8].try_into().unwrap()) as usize;
     let mut b = laz.clone();
     b[table + 4..table + 8].copy_from_slice(&u32::MAX.to_le_bytes());
-    read_err(
+    cloud_err(
         &put(&d, "chunks.laz", &b),
         &["chunk table declares 4294967295 chunks"],
     );
@@ -377,14 +356,14 @@ fn broken_las_and_laz_files_are_errors_naming_the_file() {
     // panics on this one, which must stay an error, silent on stderr).
     let mut b = laz.clone();
     b[start + 200..start + 2000].fill(0);
-    read_err(
+    cloud_err(
         &put(&d, "zeros.laz", &b),
         &["LAS: point 0 of 4000", "damaged"],
     );
     let mut b = laz.clone();
     b[start + 200..start + 2000].fill(0x5a);
     let p = put(&d, "damaged.laz", &b);
-    read_err(&p, &["LAS: point 0: the compressed data is damaged"]);
+    cloud_err(&p, &["LAS: point 0: the compressed data is damaged"]);
     reconstruct_fails(&p, &[], &["the compressed data is damaged"]);
 }
 
@@ -514,24 +493,24 @@ fn broken_e57_files_are_errors_naming_the_file() {
     let path = d.join("good.e57");
     e57_file(&path, &sphere()[..400], 7, [0.0; 3]);
     let good = fs::read(&path).unwrap();
-    read_err(&put(&d, "text.e57", "x y z\n"), &["not an E57 file"]);
-    read_err(
+    cloud_err(&put(&d, "text.e57", "x y z\n"), &["not an E57 file"]);
+    cloud_err(
         &put(&d, "head.e57", &good[..30]),
         &["ends inside the E57 header"],
     );
     let mut b = good.clone();
     b[32..40].copy_from_slice(&(40_000_000u64).to_le_bytes());
-    read_err(
+    cloud_err(
         &put(&d, "xml.e57", &b),
         &["bytes of XML at byte", "past the end"],
     );
-    read_err(
+    cloud_err(
         &put(&d, "cut.e57", &good[..good.len() - 100]),
         &["E57: ", "not a multiple of the page size"],
     );
     let mut b = good.clone();
     b[2000..2100].fill(0x5a);
-    read_err(
+    cloud_err(
         &put(&d, "crc.e57", &b),
         &["E57: scan 0, point 0", "invalid checksum"],
     );
@@ -586,14 +565,14 @@ fn broken_compressed_pcd_files_are_errors_naming_the_place() {
     // The decompressed size disagrees with the header.
     let mut b = good.clone();
     b[body + 4..body + 8].copy_from_slice(&u32::MAX.to_le_bytes());
-    read_err(
+    cloud_err(
         &put(&d, "size.pcd", &b),
         &["decompresses to 4294967295 bytes, but 600 points of 16 bytes need 9600"],
     );
     // The compressed size is past the end.
     let mut b = good.clone();
     b[body..body + 4].copy_from_slice(&(packed as u32 + 1).to_le_bytes());
-    read_err(
+    cloud_err(
         &put(&d, "packed.pcd", &b),
         &["compressed", "declared, only"],
     );
@@ -601,13 +580,13 @@ fn broken_compressed_pcd_files_are_errors_naming_the_place() {
     let mut b = good.clone();
     b.truncate(body + 8 + packed - 1);
     b[body..body + 4].copy_from_slice(&(packed as u32 - 1).to_le_bytes());
-    read_err(
+    cloud_err(
         &put(&d, "cut.pcd", &b),
         &["binary_compressed data: the stream"],
     );
     let mut b = good.clone();
     b[body + 8..body + 10].copy_from_slice(&[0x20, 0xff]);
-    read_err(
+    cloud_err(
         &put(&d, "backref.pcd", &b),
         &[
             "back-reference points before the start",
@@ -617,19 +596,19 @@ fn broken_compressed_pcd_files_are_errors_naming_the_place() {
     // A width and height that overflow, and a huge COUNT.
     let head = "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 4294967296\nHEIGHT 4294967296\n\
                 DATA binary_compressed\n";
-    read_err(
+    cloud_err(
         &put(&d, "wh.pcd", head),
         &["WIDTH 4294967296 * HEIGHT 4294967296 overflows"],
     );
     let head = "FIELDS x y z h\nSIZE 4 4 4 4\nTYPE F F F F\nCOUNT 1 1 1 9999999999999999999\n\
                 WIDTH 1\nDATA binary\n";
-    read_err(
+    cloud_err(
         &put(&d, "count.pcd", head),
         &["line 4: field 'h': COUNT", "too large"],
     );
     // Every pixel without a measure: nothing to read.
     let (all_nan, _) = organised_pcd(&[[f64::NAN; 3]; 3], 4, 2);
-    read_err(&put(&d, "all_nan.pcd", all_nan), &["no valid points"]);
+    cloud_err(&put(&d, "all_nan.pcd", all_nan), &["no valid points"]);
 }
 
 // ---------------------------------------------------------------- text clouds

@@ -7,10 +7,11 @@
 //! committed. The real models in `../shared/data` are read when present.
 
 mod common;
+use common::{check_msg, cloud_err};
 
 use std::fs;
 use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use vsaqem::io::{
     read_cloud, read_mesh, write_atomic, write_mesh, write_points_ply, Cloud, MeshFormat,
@@ -27,24 +28,6 @@ fn put(dir: &Path, name: &str, bytes: impl AsRef<[u8]>) -> PathBuf {
     p
 }
 
-/// Reads `path` as a cloud, expects an error, checks it names the file and contains
-/// every `detail`, and that it came back fast (no giant allocation or loop).
-fn cloud_err(path: &Path, details: &[&str]) -> String {
-    let t = Instant::now();
-    let r = read_cloud(path);
-    assert!(
-        t.elapsed() < Duration::from_secs(2),
-        "took {:?}",
-        t.elapsed()
-    );
-    let msg = match r {
-        Ok(c) => panic!("{} read as {} points", path.display(), c.positions.len()),
-        Err(e) => e.to_string(),
-    };
-    check_msg(path, &msg, details);
-    msg
-}
-
 fn mesh_err(path: &Path, details: &[&str]) -> String {
     let msg = match read_mesh(path) {
         Ok((v, t)) => panic!(
@@ -57,14 +40,6 @@ fn mesh_err(path: &Path, details: &[&str]) -> String {
     };
     check_msg(path, &msg, details);
     msg
-}
-
-fn check_msg(path: &Path, msg: &str, details: &[&str]) {
-    let name = path.file_name().unwrap().to_str().unwrap();
-    assert!(msg.contains(name), "message does not name {name}: {msg}");
-    for d in details {
-        assert!(msg.contains(d), "message lacks {d:?}: {msg}");
-    }
 }
 
 fn le_f32(v: &[f32]) -> Vec<u8> {

@@ -6,6 +6,8 @@ pub mod glb;
 use std::ffi::OsStr;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
+use std::time::{Duration, Instant};
+use vsaqem::io::read_cloud;
 
 /// The `vsaqem` binary under test.
 pub fn bin() -> Command {
@@ -56,4 +58,31 @@ pub fn field(report: &str, key: &str) -> f64 {
     v[key]
         .as_f64()
         .unwrap_or_else(|| panic!("{key} missing or not a number in {report}"))
+}
+
+/// Reads `path` as a cloud, expects an error, checks it names the file and contains
+/// every `detail`, and that it came back fast (no giant allocation or loop).
+pub fn cloud_err(path: &Path, details: &[&str]) -> String {
+    let t = Instant::now();
+    let r = read_cloud(path);
+    assert!(
+        t.elapsed() < Duration::from_secs(2),
+        "took {:?}",
+        t.elapsed()
+    );
+    let msg = match r {
+        Ok(c) => panic!("{} read as {} points", path.display(), c.positions.len()),
+        Err(e) => e.to_string(),
+    };
+    check_msg(path, &msg, details);
+    msg
+}
+
+/// Checks that `msg` names the file of `path` and contains every `details`.
+pub fn check_msg(path: &Path, msg: &str, details: &[&str]) {
+    let name = path.file_name().unwrap().to_str().unwrap();
+    assert!(msg.contains(name), "message does not name {name}: {msg}");
+    for d in details {
+        assert!(msg.contains(d), "message lacks {d:?}: {msg}");
+    }
 }
