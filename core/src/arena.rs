@@ -471,7 +471,7 @@ pub fn atomic_u16s(values: &mut [u16]) -> &[core::sync::atomic::AtomicU16] {
     unsafe { &*(values as *mut [u16] as *const [core::sync::atomic::AtomicU16]) }
 }
 
-/// `values` as atomic `u32`s (see [`atomic_bytes`]); [`labels_of`] gives
+/// `values` as atomic `u32`s (see [`atomic_bytes`]); [`plain_u32s`] gives
 /// them back.
 pub fn atomic_u32s(values: &mut [u32]) -> &mut [core::sync::atomic::AtomicU32] {
     // SAFETY: `AtomicU32` has the size, alignment and bit validity of `u32`,
@@ -480,7 +480,7 @@ pub fn atomic_u32s(values: &mut [u32]) -> &mut [core::sync::atomic::AtomicU32] {
 }
 
 /// Atomic `u32`s as plain values again, once no other thread holds them.
-pub fn labels_of(values: &mut [core::sync::atomic::AtomicU32]) -> &mut [u32] {
+pub fn plain_u32s(values: &mut [core::sync::atomic::AtomicU32]) -> &mut [u32] {
     // SAFETY: as for `atomic_u32s`, the other way; the exclusive borrow means
     // no atomic access can happen meanwhile.
     unsafe { &mut *(values as *mut [core::sync::atomic::AtomicU32] as *mut [u32]) }

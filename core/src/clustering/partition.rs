@@ -456,9 +456,8 @@ impl<'a> ClusterState<'a> {
             border: &mut *self.border,
             sweeps: self.sweeps,
         };
-        if let Some(e) = repartition(arena, ctx, &mut st, grown, &*progress)? {
-            self.stats.energy = e;
-        }
+        let total = &mut self.stats.energy;
+        repartition(arena, ctx, &mut st, grown, Start::Warm, total, &*progress)?;
         if let Some(params) = params {
             let planned = self.stats.passes + params.split_iterations.max(1);
             passes(
@@ -532,15 +531,6 @@ pub fn try_cluster_state_in<'a>(
     // partition, so its state is restored exactly from a copy of the first two.
     let sweeps = params.partition.sweeps(n);
     let border = arena.try_alloc_slice::<u8>(if sweeps { n } else { 0 }, 1)?;
-    arena.scratch(|s| {
-        if sweeps {
-            let (g, sd) = (&generators[..m], &seeds[..m]);
-            sweep::partition(s, &ctx, g, sd, labels, border, Start::Fresh, &*progress)
-        } else {
-            stats.energy = partition(s, &ctx, &generators[..m], &seeds[..m], labels)?;
-            Ok(())
-        }
-    })?;
     let mut st = State {
         labels,
         generators,
@@ -548,6 +538,8 @@ pub fn try_cluster_state_in<'a>(
         border,
         sweeps,
     };
+    let total = &mut stats.energy;
+    repartition(arena, &ctx, &mut st, m, Start::Fresh, total, &*progress)?;
     let pass = |st: &mut State,
                 m: usize,
                 count: u32,
@@ -589,9 +581,8 @@ pub fn try_cluster_state_in<'a>(
                 break;
             }
             let grown = m + added;
-            if let Some(e) = repartition(arena, &ctx, &mut st, grown, &*progress)? {
-                stats.energy = e;
-            }
+            let total = &mut stats.energy;
+            repartition(arena, &ctx, &mut st, grown, Start::Warm, total, &*progress)?;
             if relax {
                 pass(
                     &mut st,
@@ -625,8 +616,9 @@ pub fn try_cluster_state_in<'a>(
                     // gone with the batch: every point is looked at again.
                     st.labels.copy_from_slice(backup_l);
                     st.border.fill(1);
-                } else if let Some(e) = repartition(arena, &ctx, &mut st, m, &*progress)? {
-                    stats.energy = e;
+                } else {
+                    let total = &mut stats.energy;
+                    repartition(arena, &ctx, &mut st, m, Start::Warm, total, &*progress)?;
                 }
                 stats.rejected_batches += 1;
                 if relax {
@@ -680,22 +672,25 @@ struct State<'x> {
 }
 
 /// Partition the points among the first `m` clusters of `st` (scratch from
-/// `arena`); returns the energy of region growing (sweeps leave it to
-/// [`energy`], once at the end: it would cost a pass over the points).
+/// `arena`): by sweeps from `start`, or by region growing (always from the
+/// seeds alone), which also sets `energy` (sweeps leave it to [`energy`],
+/// once at the end: it would cost a pass over the points).
 fn repartition(
     arena: &Arena,
     ctx: &Ctx,
     st: &mut State,
     m: usize,
+    start: Start,
+    energy: &mut f64,
     hooks: &dyn Progress,
-) -> Result<Option<f64>> {
+) -> Result<()> {
     let (g, s_) = (&st.generators[..m], &st.seeds[..m]);
     arena.scratch(|s| {
         if st.sweeps {
-            sweep::partition(s, ctx, g, s_, st.labels, st.border, Start::Warm, hooks)?;
-            Ok(None)
+            sweep::partition(s, ctx, g, s_, st.labels, st.border, start, hooks)
         } else {
-            partition(s, ctx, g, s_, st.labels).map(Some)
+            *energy = partition(s, ctx, g, s_, st.labels)?;
+            Ok(())
         }
     })
 }
@@ -747,9 +742,15 @@ fn passes(
             stats.converged = true;
             break;
         }
-        if let Some(e) = repartition(arena, ctx, st, m, &*progress)? {
-            stats.energy = e;
-        }
+        repartition(
+            arena,
+            ctx,
+            st,
+            m,
+            Start::Warm,
+            &mut stats.energy,
+            &*progress,
+        )?;
     }
     Ok(())
 }

@@ -3,7 +3,7 @@
 //! a pass after the first recomputes only what changed near the borders
 //! between clusters.
 
-use crate::arena::{atomic_bytes, atomic_u16s, atomic_u32s, labels_of, padded_bytes, Scratch};
+use crate::arena::{atomic_bytes, atomic_u16s, atomic_u32s, padded_bytes, plain_u32s, Scratch};
 use crate::clustering::partition::{Ctx, NONE};
 use crate::error::Result;
 use crate::math::V3;
@@ -311,7 +311,7 @@ fn numbered(
             t += 1;
         }
     }
-    let labels = labels_of(labels);
+    let labels = plain_u32s(labels);
     let reached = atomic_bytes(s.try_alloc_slice::<u8>(n, 0)?);
     connect(
         s,
