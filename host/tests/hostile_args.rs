@@ -1,0 +1,176 @@
+//! Arguments and inputs past what a run can hold: each is an error that names
+//! the option (or file), the value and the limit, exits with 1 before any
+//! work, and leaves no output behind; none is an allocation the system
+//! refuses (an abort) or a capacity overflow (a panic).
+
+mod common;
+use common::bin;
+
+use std::path::{Path, PathBuf};
+use std::process::Output;
+use std::time::{Duration, Instant};
+
+fn dir(name: &str) -> PathBuf {
+    common::dir("hostile_args", name)
+}
+
+/// Runs `vsaqem ARGS`, expects exit 1 within a few seconds with every one of
+/// `needles` on stderr and no panic, and nothing left in `d`.
+fn fails(d: &Path, args: &[&str], needles: &[&str]) -> String {
+    let t = Instant::now();
+    let r: Output = bin().args(args).current_dir(d).output().unwrap();
+    let stderr = String::from_utf8_lossy(&r.stderr).into_owned();
+    assert!(
+        t.elapsed() < Duration::from_secs(20),
+        "{args:?} took {:?}",
+        t.elapsed()
+    );
+    assert_eq!(r.status.code(), Some(1), "{args:?}: {stderr}");
+    assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+    for n in needles {
+        assert!(stderr.contains(n), "{args:?}: {n:?} not in: {stderr}");
+    }
+    let left: Vec<_> = std::fs::read_dir(d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert!(left.is_empty(), "{args:?} left {left:?}");
+    stderr
+}
+
+#[test]
+fn sample_points_past_the_limit_are_refused_before_any_is_made() {
+    let d = dir("points");
+    for points in ["18446744073709551615", "1000000000", "100000001"] {
+        for command in ["reconstruct", "cluster"] {
+            fails(
+                &d,
+                &[
+                    command, "-q", "--sample", "sphere", "--points", points, "-o", "o.ply",
+                ],
+                &[&format!(
+                    "--points {points} is more than the limit of 100000000"
+                )],
+            );
+        }
+    }
+}
+
+#[test]
+fn memory_past_the_machine_is_refused_before_it_is_reserved() {
+    let d = dir("memory");
+    // More than any machine this runs on has, and than the 1 TiB cap.
+    fails(
+        &d,
+        &[
+            "reconstruct",
+            "-q",
+            "--points",
+            "3000",
+            "--memory",
+            "100000GiB",
+            "-o",
+            "o.ply",
+        ],
+        &["--memory 107374182400000 bytes", "is more than", "memory"],
+    );
+    // Bytes per cluster past their limit.
+    fails(
+        &d,
+        &[
+            "reconstruct",
+            "-q",
+            "--points",
+            "3000",
+            "--mesh-bytes-per-cluster",
+            "4294967295",
+            "-o",
+            "o.ply",
+        ],
+        &["--mesh-bytes-per-cluster 4294967295 is more than the limit of 1048576"],
+    );
+    // The most sample points with all neighbours and half as many clusters:
+    // their least arena (239 GB) is named against the machine's memory before a point is made.
+    if physical_memory().is_some_and(|b| b < 200 << 30) {
+        fails(
+            &d,
+            &[
+                "reconstruct",
+                "-q",
+                "--points",
+                "100000000",
+                "--clusters",
+                "50000000",
+                "--knn",
+                "32",
+                "-o",
+                "o.ply",
+            ],
+            &[
+                "this run needs at least",
+                "100000000 points",
+                "more than this machine's",
+            ],
+        );
+    }
+}
+
+/// `MemTotal` of `/proc/meminfo`, in bytes.
+fn physical_memory() -> Option<u64> {
+    let info = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = info.lines().find(|l| l.starts_with("MemTotal:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
+#[test]
+fn eval_samples_past_the_limit_are_refused_before_reading() {
+    let d = dir("eval");
+    for samples in ["18446744073709551615", "10000000000", "10000001"] {
+        fails(
+            &d,
+            &["eval", "--samples", samples, "points.xyz", "mesh.ply"],
+            &[&format!(
+                "--samples {samples} is more than the limit of 10000000"
+            )],
+        );
+    }
+}
+
+#[test]
+fn render_sizes_past_the_limit_are_refused_before_reading() {
+    let d = dir("render");
+    fails(
+        &d,
+        &[
+            "render",
+            "mesh.ply",
+            "-o",
+            "x.png",
+            "--size",
+            "8192x8192",
+            "--supersample",
+            "4",
+        ],
+        &["8192x8192 with 4x supersampling", "67108864"],
+    );
+    fails(
+        &d,
+        &[
+            "render",
+            "a.ply",
+            "b.ply",
+            "-o",
+            "x.png",
+            "--size",
+            "8192x8192",
+            "--supersample",
+            "1",
+        ],
+        &[
+            "2 meshes side by side at 8192x8192",
+            "134217728 pixels",
+            "67108864",
+        ],
+    );
+}
