@@ -19,7 +19,8 @@ pub struct InputArgs {
     /// Point cloud to read: .ply, .xyz/.xyzn/.txt/.pts/.csv (text), .pcd, .las/.laz,
     /// .e57, or a mesh (.obj, .off, .stl; a PLY mesh too) whose vertices are the
     /// points; - reads standard input (its format from --format, or else from
-    /// its first bytes). Without it, a built-in generated sample is used.
+    /// its first bytes). At most 4 GiB; a stream whose first bytes cannot open
+    /// its format fails on them. Without it, a built-in generated sample is used.
     pub input: Option<PathBuf>,
     /// The input's format, as one of INPUT's extensions (e.g. ply, xyz, las),
     /// over the file's extension; for - (standard input) over what its first

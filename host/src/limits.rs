@@ -16,8 +16,9 @@ pub const MAX_MESH_BYTES_PER_CLUSTER: u32 = 1 << 20;
 /// Most surface samples of `eval` (`--samples`): 100 times the default.
 pub const MAX_EVAL_SAMPLES: usize = 10_000_000;
 
-/// Most bytes read from one input file or standard input: 16 GiB.
-pub const MAX_INPUT_BYTES: u64 = 16 << 30;
+/// Most bytes read from one input file or standard input: 4 GiB (some 130
+/// million points of text, whose arena alone would be near 20 GB).
+pub const MAX_INPUT_BYTES: u64 = 4 << 30;
 
 /// Most arena bytes where the machine's physical memory is not known.
 const FALLBACK_MEMORY: u64 = 1 << 40;

@@ -174,3 +174,122 @@ fn render_sizes_past_the_limit_are_refused_before_reading() {
         ],
     );
 }
+
+/// Runs `vsaqem ARGS` with `stdin`, in `d`; see [`fails`].
+fn fails_with_stdin(d: &Path, args: &[&str], stdin: &Path, needles: &[&str]) {
+    let t = Instant::now();
+    let r = bin()
+        .args(args)
+        .current_dir(d)
+        .stdin(std::fs::File::open(stdin).unwrap())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert!(t.elapsed() < Duration::from_secs(20), "{args:?}");
+    assert_eq!(r.status.code(), Some(1), "{args:?}: {stderr}");
+    assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+    for n in needles {
+        assert!(stderr.contains(n), "{args:?}: {n:?} not in: {stderr}");
+    }
+    assert_eq!(std::fs::read_dir(d).unwrap().count(), 0, "{args:?}");
+}
+
+#[cfg(unix)]
+#[test]
+fn endless_devices_fail_on_their_first_bytes() {
+    let (zero, random) = (Path::new("/dev/zero"), Path::new("/dev/urandom"));
+    if !zero.exists() || !random.exists() {
+        return;
+    }
+    let d = dir("devices");
+    for command in ["reconstruct", "cluster"] {
+        fails(
+            &d,
+            &[command, "-q", "/dev/zero", "--format", "xyz", "-o", "o.ply"],
+            &["/dev/zero: line 1: not text: byte 1 of the line is a NUL byte"],
+        );
+        fails(
+            &d,
+            &[
+                command,
+                "-q",
+                "/dev/urandom",
+                "--format",
+                "ply",
+                "-o",
+                "o.ply",
+            ],
+            &["/dev/urandom: line 1: not"],
+        );
+        fails(
+            &d,
+            &[
+                command,
+                "-q",
+                "/dev/urandom",
+                "--format",
+                "las",
+                "-o",
+                "o.ply",
+            ],
+            &["/dev/urandom: not a LAS file"],
+        );
+        // Zeros are a binary STL of no triangles, which ends at byte 84.
+        fails(
+            &d,
+            &[command, "-q", "/dev/zero", "--format", "stl", "-o", "o.ply"],
+            &["/dev/zero: binary STL declares 0 triangles, 84 bytes, but more follow"],
+        );
+        fails_with_stdin(
+            &d,
+            &[command, "-q", "-", "-o", "o.ply"],
+            zero,
+            &["standard input: not text, nor a binary STL"],
+        );
+        fails_with_stdin(
+            &d,
+            &[command, "-q", "-", "--format", "pcd", "-o", "o.ply"],
+            random,
+            &["standard input: line 1: not text"],
+        );
+    }
+    // eval and render tell the format by the extension: links to the devices.
+    let links = dir("device_links");
+    for (name, to) in [
+        ("z.xyz", zero),
+        ("r.ply", random),
+        ("r.obj", random),
+        ("z.off", zero),
+    ] {
+        std::os::unix::fs::symlink(to, links.join(name)).unwrap();
+    }
+    let at = |name: &str| links.join(name).to_str().unwrap().to_string();
+    let (z_xyz, r_ply, r_obj, z_off) = (at("z.xyz"), at("r.ply"), at("r.obj"), at("z.off"));
+    fails(&d, &["eval", &z_xyz, &r_obj], &["z.xyz: line 1: not text"]);
+    fails(&d, &["eval", &r_ply, &r_obj], &["r.ply: line 1: not"]);
+    fails(&d, &["eval", &r_ply, &z_off], &["r.ply: line 1: not"]);
+    fails(
+        &d,
+        &["render", &z_off, "-o", "x.png"],
+        &["z.off: line 1: not text"],
+    );
+}
+
+#[test]
+fn a_file_past_the_input_limit_is_refused_before_a_byte_is_read() {
+    let d = dir("huge");
+    let inputs = dir("huge_input");
+    let huge = inputs.join("huge.xyz");
+    // Sparse: 4 GiB and a byte, none of it written.
+    let f = std::fs::File::create(&huge).unwrap();
+    f.set_len((4 << 30) + 1).unwrap();
+    drop(f);
+    let huge = huge.to_str().unwrap();
+    fails(
+        &d,
+        &["cluster", "-q", huge, "-o", "o.ply"],
+        &["huge.xyz: 4294967297 bytes, more than the limit of 4294967296 bytes"],
+    );
+    fails(&d, &["eval", huge, huge], &["huge.xyz: 4294967297 bytes"]);
+    std::fs::remove_file(huge).unwrap();
+}

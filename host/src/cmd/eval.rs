@@ -17,9 +17,9 @@ use std::time::Instant;
 #[derive(Args, Debug)]
 pub struct Cmd {
     /// The input point cloud (any format `reconstruct` reads: .ply, .xyz/.xyzn/.txt/
-    /// .pts/.csv, .pcd, .las/.laz, .e57, .obj, .off, .stl).
+    /// .pts/.csv, .pcd, .las/.laz, .e57, .obj, .off, .stl), at most 4 GiB.
     pub points: PathBuf,
-    /// The mesh to measure (.ply, .obj, .off, .stl).
+    /// The mesh to measure (.ply, .obj, .off, .stl), at most 4 GiB.
     pub mesh: PathBuf,
     /// Print the report as JSON instead of text.
     #[arg(long)]

@@ -2,9 +2,11 @@
 //! OBJ, OFF and STL meshes), meshes and labelled points out (PLY, OBJ, OFF), and
 //! meshes back in (PLY, OBJ, OFF, STL) for evaluation.
 //!
-//! Every reader loads the whole file with `std::fs::read` (inputs are tens of MB at
-//! most) and parses the byte slice in one pass: O(file size) time, memory proportional
-//! to the output. Readers are written for hostile input:
+//! Every reader loads the whole file (inputs are tens of MB, at most
+//! [`crate::limits::MAX_INPUT_BYTES`]; a stream that cannot open a file of its
+//! format fails on its first bytes, see [`bounded`]) and parses the byte slice in
+//! one pass: O(file size) time, memory proportional to the output. Readers are
+//! written for hostile input:
 //! - any malformed file is a [`ReadError`] naming the path, the place (1-based line for
 //!   text, element index or byte offset for binary) and the offending value; never a
 //!   panic (the decoders of other crates run under `quiet_catch`);
@@ -26,6 +28,7 @@ use std::panic::AssertUnwindSafe;
 use std::path::{Path, PathBuf};
 use std::sync::Once;
 
+mod bounded;
 pub mod e57;
 pub mod las;
 pub mod lzf;
@@ -170,9 +173,7 @@ pub fn read_cloud(path: &Path) -> Result<Cloud, ReadError> {
 /// Cost: one read of the file plus one pass over its bytes.
 pub fn read_cloud_with(path: &Path, options: &ReadOptions) -> Result<Cloud, ReadError> {
     let stdin = if is_stdio(path) {
-        let mut data = Vec::new();
-        io::Read::read_to_end(&mut io::stdin().lock(), &mut data)
-            .map_err(|e| ReadError::new(path, ReadErrorKind::Io(e)))?;
+        let data = bounded::read_input(path, options.format.as_deref())?;
         if data.is_empty() {
             return Err(ReadError::new(path, ReadErrorKind::file("no data")));
         }
@@ -213,7 +214,7 @@ pub fn read_cloud_with(path: &Path, options: &ReadOptions) -> Result<Cloud, Read
     }
     let data = match stdin {
         Some(data) => data,
-        None => load(path)?,
+        None => load(path, ext.as_deref())?,
     };
     let cloud = match format {
         CloudFormat::Ply => ply::parse_cloud(&data),
@@ -247,7 +248,7 @@ pub fn read_mesh(path: &Path) -> Result<Mesh, ReadError> {
         Some("stl") => stl::parse_mesh,
         _ => return Err(unknown_extension(path, ext, MESH_EXTENSIONS)),
     };
-    let data = load(path)?;
+    let data = load(path, ext.as_deref())?;
     parse(&data).map_err(|kind| ReadError::new(path, kind))
 }
 
@@ -266,8 +267,9 @@ fn unknown_extension(path: &Path, ext: Option<String>, supported: &'static str) 
     )
 }
 
-fn load(path: &Path) -> Result<Vec<u8>, ReadError> {
-    std::fs::read(path).map_err(|e| ReadError::new(path, ReadErrorKind::Io(e)))
+/// The bytes of `path`, read as `ext`, at most [`crate::limits::MAX_INPUT_BYTES`].
+fn load(path: &Path, ext: Option<&str>) -> Result<Vec<u8>, ReadError> {
+    bounded::read_input(path, ext)
 }
 
 /// Why a file could not be read, with the path it came from.
