@@ -293,3 +293,78 @@ fn a_file_past_the_input_limit_is_refused_before_a_byte_is_read() {
     fails(&d, &["eval", huge, huge], &["huge.xyz: 4294967297 bytes"]);
     std::fs::remove_file(huge).unwrap();
 }
+
+/// `n` points spread over a sphere of radius `r` (a Fibonacci lattice), as text.
+fn sphere_xyz(n: usize, r: f64) -> String {
+    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    (0..n)
+        .map(|i| {
+            let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
+            let (s, t) = ((1.0 - z * z).sqrt(), golden * i as f64);
+            format!("{:e} {:e} {:e}\n", r * s * t.cos(), r * s * t.sin(), r * z)
+        })
+        .collect()
+}
+
+#[test]
+fn coordinates_past_the_limit_are_named_with_their_value_and_float32_range_is_kept() {
+    let inputs = dir("coordinates_input");
+    let d = dir("coordinates");
+    let text = inputs.join("huge.xyz");
+    let mut cloud = sphere_xyz(2000, 1.0);
+    cloud.push_str("1.7e308 0 0\n");
+    std::fs::write(&text, cloud).unwrap();
+    fails(
+        &d,
+        &["reconstruct", "-q", text.to_str().unwrap(), "-o", "o.ply"],
+        &[
+            "huge.xyz: line 2001: vertex 2000: x is 1.7e308, beyond the largest coordinate",
+            "1e40",
+        ],
+    );
+    let mut ply = b"ply\nformat binary_little_endian 1.0\nelement vertex 1\nproperty double x\n\
+                    property double y\nproperty double z\nend_header\n"
+        .to_vec();
+    for v in [0.0f64, -1.7e308, 0.0] {
+        ply.extend(v.to_le_bytes());
+    }
+    let double = inputs.join("double.ply");
+    std::fs::write(&double, ply).unwrap();
+    fails(
+        &d,
+        &["cluster", "-q", double.to_str().unwrap(), "-o", "o.ply"],
+        &["double.ply: vertex 0: y is -1.7e308, beyond"],
+    );
+    fails(
+        &d,
+        &["eval", double.to_str().unwrap(), double.to_str().unwrap()],
+        &["double.ply: vertex 0: y is -1.7e308"],
+    );
+    // Past float32's range but within the limit: written as float64, finite.
+    let big = inputs.join("big.xyz");
+    std::fs::write(&big, sphere_xyz(2000, 1e39)).unwrap();
+    let out = inputs.join("big.ply");
+    let r = bin()
+        .args(["reconstruct", "-q", "--clusters", "100"])
+        .arg(&big)
+        .arg("-o")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert_eq!(
+        r.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&r.stderr)
+    );
+    let cloud = vsaqem::io::read_cloud(&out).unwrap();
+    let largest = cloud
+        .positions
+        .iter()
+        .flatten()
+        .fold(0f64, |m, v| m.max(v.abs()));
+    assert!(
+        largest > 5e38 && largest < 1.1e39,
+        "largest coordinate {largest:e}"
+    );
+}

@@ -231,7 +231,10 @@ pub fn read_cloud_with(path: &Path, options: &ReadOptions) -> Result<Cloud, Read
         Ok(c) if c.positions.is_empty() => {
             Err(ReadError::new(path, ReadErrorKind::file("no points")))
         }
-        Ok(c) => Ok(c),
+        Ok(c) => match check_magnitudes(&c.positions) {
+            Ok(()) => Ok(c),
+            Err(kind) => Err(ReadError::new(path, kind)),
+        },
         Err(kind) => Err(ReadError::new(path, kind)),
     }
 }
@@ -249,7 +252,9 @@ pub fn read_mesh(path: &Path) -> Result<Mesh, ReadError> {
         _ => return Err(unknown_extension(path, ext, MESH_EXTENSIONS)),
     };
     let data = load(path, ext.as_deref())?;
-    parse(&data).map_err(|kind| ReadError::new(path, kind))
+    parse(&data)
+        .and_then(|mesh| check_magnitudes(&mesh.0).map(|()| mesh))
+        .map_err(|kind| ReadError::new(path, kind))
 }
 
 fn extension(path: &Path) -> Option<String> {
@@ -321,6 +326,18 @@ pub enum ReadErrorKind {
         at: At,
         /// What is wrong, with the offending value.
         what: String,
+    },
+    /// A position coordinate is finite but larger in magnitude than
+    /// [`MAX_COORDINATE`].
+    TooLarge {
+        /// 0-based vertex (point) number.
+        vertex: u64,
+        /// 1-based line number, for text formats.
+        line: Option<usize>,
+        /// `"x"`, `"y"` or `"z"`.
+        coord: &'static str,
+        /// The value read.
+        value: f64,
     },
     /// A position coordinate is NaN or infinite.
     NonFinite {
@@ -407,6 +424,21 @@ impl fmt::Display for ReadErrorKind {
                 }
                 write!(f, "vertex {vertex}: {coord} is {value}")
             }
+            ReadErrorKind::TooLarge {
+                vertex,
+                line,
+                coord,
+                value,
+            } => {
+                if let Some(n) = line {
+                    write!(f, "line {n}: ")?;
+                }
+                write!(
+                    f,
+                    "vertex {vertex}: {coord} is {value:e}, beyond the largest coordinate \
+                     vsaqem takes ({MAX_COORDINATE:e} in magnitude)"
+                )
+            }
         }
     }
 }
@@ -430,7 +462,14 @@ impl std::error::Error for ReadError {
     }
 }
 
-/// Checks that a position is finite; `vertex` and `line` locate it for the message.
+/// The largest coordinate, in magnitude, a position may have: past float32's
+/// 3.4e38 (the output is then float64), and far enough below float64's
+/// 1.8e308 that the squares and products of the mesh's checks and of `eval`
+/// stay finite (they are right at 1e50 and wrong at 1e60).
+pub const MAX_COORDINATE: f64 = 1e40;
+
+/// Checks that a position is finite and within [`MAX_COORDINATE`]; `vertex`
+/// and `line` locate it for the message.
 pub(crate) fn check_finite(
     p: [f64; 3],
     vertex: u64,
@@ -445,8 +484,25 @@ pub(crate) fn check_finite(
                 value,
             });
         }
+        if value.abs() > MAX_COORDINATE {
+            return Err(ReadErrorKind::TooLarge {
+                vertex,
+                line,
+                coord,
+                value,
+            });
+        }
     }
     Ok(())
+}
+
+/// [`check_finite`] on every position, for the readers that skip the points
+/// that are not finite (PCD, LAS, E57) and as the last word on the others.
+fn check_magnitudes(positions: &[[f64; 3]]) -> Result<(), ReadErrorKind> {
+    positions
+        .iter()
+        .zip(0u64..)
+        .try_for_each(|(&p, i)| check_finite(p, i, None))
 }
 
 thread_local! {
