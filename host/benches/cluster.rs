@@ -46,7 +46,7 @@ fn main() {
         let mut best = common::Fastest::default();
         let mut stats = None;
         for _ in 0..3 {
-            let mut buf = arena_buffer(cluster_bytes(n, &params));
+            let mut buf = arena_buffer(cluster_bytes(n, &params)).expect("arena");
             let arena = Arena::new(&mut buf);
             let mut clock = StageClock::new(false);
             let out = match input.run_core(cluster_with_rows, None, &arena, &params, &mut clock) {

@@ -40,7 +40,8 @@ fn main() {
         };
         let read = prepare(name.clone(), cloud);
         let all = read.original.clone();
-        let mut buf = arena_buffer(vsaqem_core::clean_bytes(all.len(), &Params::default()));
+        let mut buf =
+            arena_buffer(vsaqem_core::clean_bytes(all.len(), &Params::default())).expect("arena");
         let mut clock = StageClock::new(false);
         let input = match clean_input(read, &Params::default(), &mut buf, &mut clock) {
             Ok((input, _, _)) => input,
@@ -57,7 +58,8 @@ fn main() {
             let mut best = common::Fastest::default();
             let mut last = None;
             for _ in 0..3 {
-                let mut buf = arena_buffer(arena_bytes(input.points.len(), &params));
+                let mut buf =
+                    arena_buffer(arena_bytes(input.points.len(), &params)).expect("arena");
                 let arena = Arena::new(&mut buf);
                 let mut clock = StageClock::new(false);
                 let out = match input.run_core(

@@ -4,6 +4,7 @@
 use crate::input::{self, Prepared};
 use crate::io::xyz::Columns;
 use crate::io::{is_cloud_extension, ReadOptions, CLOUD_EXTENSIONS};
+use crate::limits::{at_most, MemoryLimit, MAX_SAMPLE_POINTS};
 use crate::progress::StageClock;
 use clap::{Args, ValueEnum};
 use std::mem::MaybeUninit;
@@ -18,7 +19,8 @@ pub struct InputArgs {
     /// Point cloud to read: .ply, .xyz/.xyzn/.txt/.pts/.csv (text), .pcd, .las/.laz,
     /// .e57, or a mesh (.obj, .off, .stl; a PLY mesh too) whose vertices are the
     /// points; - reads standard input (its format from --format, or else from
-    /// its first bytes). Without it, a built-in generated sample is used.
+    /// its first bytes). At most 4 GiB; a stream whose first bytes cannot open
+    /// its format fails on them. Without it, a built-in generated sample is used.
     pub input: Option<PathBuf>,
     /// The input's format, as one of INPUT's extensions (e.g. ply, xyz, las),
     /// over the file's extension; for - (standard input) over what its first
@@ -42,7 +44,7 @@ pub struct InputArgs {
     /// sphere and a cube apart, plus a stray fragment of 40 points).
     #[arg(long, default_value = "demo", value_parser = parse_shape)]
     pub sample: Shape,
-    /// Points of the built-in sample.
+    /// Points of the built-in sample (at most 100,000,000).
     #[arg(long, default_value_t = 20_000)]
     pub points: usize,
     /// Gaussian noise added to the built-in sample, as a fraction of its
@@ -61,6 +63,16 @@ pub enum NormalsMode {
 }
 
 impl InputArgs {
+    /// `--points` within [`MAX_SAMPLE_POINTS`], checked before any work.
+    pub fn check_limits(&self) -> Result<(), String> {
+        at_most(
+            "--points",
+            self.points as u64,
+            MAX_SAMPLE_POINTS as u64,
+            "points of a built-in sample",
+        )
+    }
+
     /// How the input file is to be read.
     pub fn read_options(&self) -> ReadOptions {
         ReadOptions {
@@ -268,10 +280,11 @@ impl ClusterArgs {
 #[derive(Args, Debug, Clone)]
 #[command(next_help_heading = "Run")]
 pub struct MemoryArgs {
-    /// Arena size in bytes (suffixes KiB, MiB, GiB; e.g. 64MiB, 1.5GiB, 200000).
+    /// Arena size in bytes (suffixes KiB, MiB, GiB; e.g. 64MiB, 1.5GiB, 200000),
+    /// at most the machine's physical memory (1 TiB where it is not known).
     /// Default: the most this run can need, as core bounds it for these points
-    /// and parameters. Less than that fails at once, naming the size needed;
-    /// more is allowed but never used.
+    /// and parameters, up to that limit. Less than the run needs fails at once,
+    /// naming the size needed; more is allowed but never used.
     #[arg(long, value_name = "BYTES", value_parser = parse_bytes)]
     pub memory: Option<usize>,
     /// Threads to run on (default: every core). The output is the same for
@@ -304,21 +317,34 @@ impl MemoryArgs {
     /// The arena size to use when the run needs `needed` bytes at most and at
     /// least `least` (what any cloud of `points` points needs; what this one
     /// needs depends on its neighbour graph, which core checks as soon as it is
-    /// counted): the `--memory` budget, checked against `least` before any
-    /// work, or `needed`.
+    /// counted): the `--memory` budget, checked against `least` and the
+    /// machine's [`MemoryLimit`] before any work, or `needed` up to that limit.
     pub fn arena_size(&self, needed: usize, least: usize, points: usize) -> Result<usize, String> {
-        match self.memory {
-            None => Ok(needed),
-            Some(given) if given >= least => Ok(given),
-            Some(given) => Err(format!(
-                "--memory {given} bytes ({:.1} MiB) is too small: this run needs at least \
+        let limit = MemoryLimit::of_machine();
+        let too_small = |given: usize, flag: &str| {
+            format!(
+                "{flag} {given} bytes ({:.1} MiB) is too small: this run needs at least \
                  {least} bytes ({:.1} MiB) for {points} points with these parameters (up to \
                  {needed}, {:.1} MiB, depending on the cloud); give more, or use fewer \
                  clusters or neighbours",
                 mib(given),
                 mib(least),
                 mib(needed)
+            )
+        };
+        match self.memory {
+            Some(given) if given > limit.bytes => Err(format!(
+                "--memory {given} bytes ({:.1} MiB) is more than {limit}",
+                mib(given)
             )),
+            Some(given) if given >= least => Ok(given),
+            Some(given) => Err(too_small(given, "--memory")),
+            None if least > limit.bytes => Err(format!(
+                "this run needs at least {least} bytes ({:.1} MiB) for {points} points with \
+                 these parameters, more than {limit}; use fewer points, clusters or neighbours",
+                mib(least)
+            )),
+            None => Ok(needed.min(limit.bytes)),
         }
     }
 }
@@ -369,13 +395,21 @@ pub fn parse_bytes(s: &str) -> Result<usize, String> {
     Ok(bytes as usize)
 }
 
-/// A buffer of `bytes` uninitialised bytes for the core arena. The pages are not
+/// A buffer of `bytes` uninitialised bytes for the core arena, or an error
+/// naming the size when the system will not reserve it. The pages are not
 /// touched until core uses them, so the process's resident memory follows the
 /// arena's real use, not its size.
-pub fn arena_buffer(bytes: usize) -> Vec<MaybeUninit<u8>> {
-    let mut v = Vec::with_capacity(bytes);
+pub fn arena_buffer(bytes: usize) -> Result<Vec<MaybeUninit<u8>>, String> {
+    let mut v = Vec::new();
+    v.try_reserve_exact(bytes).map_err(|e| {
+        format!(
+            "cannot reserve an arena of {bytes} bytes ({:.1} MiB): {e}; give less --memory",
+            mib(bytes)
+        )
+    })?;
+    // Nothing is written: the bytes stay uninitialised, their pages untouched.
     v.resize(bytes, MaybeUninit::uninit());
-    v
+    Ok(v)
 }
 
 #[cfg(test)]

@@ -62,6 +62,21 @@ pub fn read_and_clean(
     run: RunBytes,
     clock: &mut StageClock,
 ) -> Result<Cleaned, String> {
+    input.check_limits()?;
+    // The sizes are a function of the point count and the parameters.
+    // The run takes cleaning's table (no search of its own) unless cleaning
+    // is off or drops points, or smoothing moves them.
+    let searched = !params.cleans() || params.smooth_rounds > 0;
+    let arena_size = |n: usize| {
+        let needed = with_clean((run.most)(n, params), n, params, false);
+        let least = with_clean((run.least)(n, params, 0, searched), n, params, true);
+        memory.arena_size(needed, least, n)
+    };
+    if input.input.is_none() {
+        // A sample's count is known before it is made: no memory goes to
+        // points that no arena could take.
+        arena_size(input.points)?;
+    }
     let input = read_input(input, clock)?;
     let n = input.points.len();
     // What core would refuse first (too few points, all in a plane, ...),
@@ -69,12 +84,7 @@ pub fn read_and_clean(
     vsaqem_core::validate::check(&input.points, input.normals.as_deref(), params)
         .map_err(|e| format!("{}: {e}", input.name))?;
     more_points_than_clusters(&input, params, "")?;
-    let needed = with_clean((run.most)(n, params), n, params, false);
-    // The run takes cleaning's table (no search of its own) unless cleaning
-    // is off or drops points, or smoothing moves them.
-    let searched = !params.cleans() || params.smooth_rounds > 0;
-    let least = with_clean((run.least)(n, params, 0, searched), n, params, true);
-    let mut buf = arena_buffer(memory.arena_size(needed, least, n)?);
+    let mut buf = arena_buffer(arena_size(n)?)?;
     let (input, stats, rows) =
         clean_input(input, params, &mut buf, clock).inspect_err(|_| clock.finish())?;
     more_points_than_clusters(&input, params, " left after cleaning")?;
@@ -155,7 +165,7 @@ pub fn clean_input(
         // The points move: their neighbours are searched again.
         rows = None;
         let need = vsaqem_core::smooth_bytes(input.points.len(), params);
-        let mut own = arena_buffer(need.min(budget));
+        let mut own = arena_buffer(need.min(budget))?;
         let arena = Arena::new(&mut own);
         vsaqem_core::smooth(&arena, &mut input.points, params, clock)
             .map_err(|e| format!("{}: smoothing: {e}", input.name))?;
@@ -174,7 +184,7 @@ fn filter_input(
         return Ok((input, None, None));
     }
     let need = vsaqem_core::clean_bytes_for(input.points.len(), params, true);
-    let mut own = arena_buffer(need.min(budget));
+    let mut own = arena_buffer(need.min(budget))?;
     let arena = Arena::new(&mut own);
     let mut keep = vec![true; input.points.len()];
     // The table is the run's own k-NN table when every point stays; it is

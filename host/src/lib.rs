@@ -10,6 +10,7 @@ pub mod eval;
 pub mod geom;
 pub mod input;
 pub mod io;
+pub mod limits;
 pub mod normalize;
 pub mod outputs;
 pub mod progress;

@@ -150,6 +150,28 @@ impl Default for RenderOptions {
 /// Largest width or height accepted.
 pub const MAX_SIZE: u32 = 8192;
 
+/// Most samples an image is rendered at: width × height × supersample², and
+/// the pixels of panels side by side (8192 × 8192; 11 bytes a sample).
+pub const MAX_SAMPLES: u64 = 1 << 26;
+
+/// Checks a size and supersampling against [`MAX_SIZE`], 1 to 4 and
+/// [`MAX_SAMPLES`], before anything is allocated for them.
+pub fn check_size(width: u32, height: u32, supersample: u32) -> Result<(), RenderError> {
+    let samples = u64::from(width) * u64::from(height) * u64::from(supersample).pow(2);
+    if !(1..=MAX_SIZE).contains(&width)
+        || !(1..=MAX_SIZE).contains(&height)
+        || !(1..=4).contains(&supersample)
+        || samples > MAX_SAMPLES
+    {
+        return Err(RenderError::BadSize {
+            width,
+            height,
+            supersample,
+        });
+    }
+    Ok(())
+}
+
 /// Colours.
 const BACKGROUND: [u8; 3] = [255, 255, 255];
 const FRONT: [f64; 3] = [180.0, 198.0, 228.0];
@@ -167,7 +189,8 @@ pub enum RenderError {
         /// Vertices it has.
         vertices: usize,
     },
-    /// Width or height out of range, or supersampling out of 1..=4.
+    /// Width or height out of range, supersampling out of 1..=4, or more
+    /// samples than [`MAX_SAMPLES`].
     BadSize {
         /// Requested width.
         width: u32,
@@ -210,7 +233,9 @@ impl fmt::Display for RenderError {
             } => write!(
                 f,
                 "image size {width}x{height} with {supersample}x supersampling: \
-                 width and height must be 1 to {MAX_SIZE}, supersampling 1 to 4"
+                 width and height must be 1 to {MAX_SIZE}, supersampling 1 to 4, and \
+                 width x height x supersampling^2 at most {MAX_SAMPLES} samples (e.g. \
+                 8192x8192, or 4096x4096 with --supersample 2)"
             ),
             RenderError::BadIndex {
                 face,
@@ -524,16 +549,7 @@ pub fn render_mesh(
     opts: &RenderOptions,
 ) -> Result<Image, RenderError> {
     let ss = opts.supersample;
-    if !(1..=MAX_SIZE).contains(&opts.width)
-        || !(1..=MAX_SIZE).contains(&opts.height)
-        || !(1..=4).contains(&ss)
-    {
-        return Err(RenderError::BadSize {
-            width: opts.width,
-            height: opts.height,
-            supersample: ss,
-        });
-    }
+    check_size(opts.width, opts.height, ss)?;
     if triangles.is_empty() {
         return Err(RenderError::EmptyMesh {
             vertices: vertices.len(),
@@ -931,6 +947,17 @@ mod tests {
         let l = hstack(&[a, b], Some(&["a", "b"]));
         assert_eq!((l.width, l.height), (40, 20 + LABEL_BAND));
         assert!(l.pixels.chunks(3).take(40 * 20).any(|p| p == [0, 0, 0]));
+    }
+
+    #[test]
+    fn the_samples_of_an_image_are_bounded_before_it_is_allocated() {
+        assert!(check_size(8192, 8192, 1).is_ok());
+        assert!(check_size(4096, 4096, 2).is_ok());
+        assert!(check_size(2048, 2048, 4).is_ok());
+        for (w, h, ss) in [(8192, 8192, 4), (4096, 4096, 3), (8193, 1, 1), (1, 1, 5)] {
+            let e = check_size(w, h, ss).unwrap_err().to_string();
+            assert!(e.contains(&format!("{w}x{h} with {ss}x")) && e.contains("67108864"));
+        }
     }
 
     #[test]

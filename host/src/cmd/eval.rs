@@ -4,6 +4,7 @@ use crate::eval::{
     evaluate, Evaluation, Quality, Stats, Topology, Validity, DEFAULT_SAMPLES, FAR_FRACTION,
 };
 use crate::io::{read_cloud, read_mesh};
+use crate::limits::{at_most, MAX_EVAL_SAMPLES};
 use crate::progress::ms;
 use crate::report::report_json;
 use crate::stdout;
@@ -16,14 +17,15 @@ use std::time::Instant;
 #[derive(Args, Debug)]
 pub struct Cmd {
     /// The input point cloud (any format `reconstruct` reads: .ply, .xyz/.xyzn/.txt/
-    /// .pts/.csv, .pcd, .las/.laz, .e57, .obj, .off, .stl).
+    /// .pts/.csv, .pcd, .las/.laz, .e57, .obj, .off, .stl), at most 4 GiB.
     pub points: PathBuf,
-    /// The mesh to measure (.ply, .obj, .off, .stl).
+    /// The mesh to measure (.ply, .obj, .off, .stl), at most 4 GiB.
     pub mesh: PathBuf,
     /// Print the report as JSON instead of text.
     #[arg(long)]
     pub json: bool,
-    /// Surface samples for the mesh -> points distances (seeded, area-uniform).
+    /// Surface samples for the mesh -> points distances (seeded, area-uniform;
+    /// at most 10,000,000).
     #[arg(long, default_value_t = DEFAULT_SAMPLES)]
     pub samples: usize,
     /// The genus the surface should have (0 for a sphere, 1 for a torus): the
@@ -35,6 +37,12 @@ pub struct Cmd {
 
 /// Run the command.
 pub fn run(cmd: &Cmd) -> Result<(), String> {
+    at_most(
+        "--samples",
+        cmd.samples as u64,
+        MAX_EVAL_SAMPLES as u64,
+        "surface samples",
+    )?;
     let t = Instant::now();
     let cloud = read_cloud(&cmd.points).map_err(|e| e.to_string())?;
     let (vertices, triangles) = read_mesh(&cmd.mesh).map_err(|e| e.to_string())?;

@@ -6,6 +6,7 @@ use crate::attributes::{vertex_colors, vertex_normals};
 use crate::clean::{read_and_clean, Cleaned, RunBytes};
 use crate::io::write::mesh::AUTO_F32_SHARE;
 use crate::io::{write_mesh, write_to, MeshFormat, MeshLayout, MeshOut, Precision};
+use crate::limits::{at_most, MAX_MESH_BYTES_PER_CLUSTER};
 use crate::outputs::check_outputs;
 use crate::progress::StageClock;
 use crate::report::{
@@ -74,8 +75,9 @@ pub struct MeshArgs {
     #[arg(long, value_name = "F", default_value_t = Params::default().max_error)]
     pub max_error: f32,
     /// Working memory of a meshing round, in bytes per cluster of the cap
-    /// (0: 400 times the square root of --knn, 1385 at k = 12). A candidate graph
-    /// denser than that fails; raise it for clouds with few points per cluster.
+    /// (0: 400 times the square root of --knn, 1385 at k = 12; at most 1048576).
+    /// A candidate graph denser than that fails; raise it for clouds with few
+    /// points per cluster.
     #[arg(long, default_value_t = Params::default().mesh_bytes_per_cluster)]
     pub mesh_bytes_per_cluster: u32,
 }
@@ -143,6 +145,12 @@ impl Cmd {
 
 /// Run the command.
 pub fn run(cmd: &Cmd) -> Result<(), String> {
+    at_most(
+        "--mesh-bytes-per-cluster",
+        cmd.mesh.mesh_bytes_per_cluster.into(),
+        MAX_MESH_BYTES_PER_CLUSTER.into(),
+        "bytes per cluster",
+    )?;
     let format = MeshFormat::from_path(&cmd.output)?;
     format
         .coords(cmd.precision, false)

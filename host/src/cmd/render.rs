@@ -1,7 +1,9 @@
 //! `vsaqem render MESH... -o FILE.png`: look at meshes (side by side when several).
 
 use crate::io::{read_cloud, read_mesh};
-use crate::render::{hstack, render_mesh, save_png, RenderOptions, Up, View};
+use crate::render::{
+    check_size, hstack, render_mesh, save_png, RenderOptions, Up, View, MAX_SAMPLES,
+};
 use clap::Args;
 use std::path::PathBuf;
 
@@ -15,7 +17,9 @@ pub struct Cmd {
     /// Output PNG.
     #[arg(short, long)]
     pub output: PathBuf,
-    /// Size of each image, WIDTHxHEIGHT.
+    /// Size of each image, WIDTHxHEIGHT: each 1 to 8192, and WIDTH x HEIGHT x
+    /// SUPERSAMPLE^2, as well as the pixels of all panels side by side, at most
+    /// 67,108,864 (8192x8192).
     #[arg(long, default_value = "800x800", value_parser = parse_size)]
     pub size: (u32, u32),
     /// Camera: front, side, top or iso (three-quarter view from front-right-top).
@@ -57,6 +61,16 @@ fn parse_up(s: &str) -> Result<Up, String> {
 
 /// Run the command.
 pub fn run(cmd: &Cmd) -> Result<(), String> {
+    let (width, height) = cmd.size;
+    check_size(width, height, cmd.supersample).map_err(|e| e.to_string())?;
+    let pixels = u64::from(width) * u64::from(height) * cmd.meshes.len() as u64;
+    if cmd.meshes.len() > 1 && pixels > MAX_SAMPLES {
+        return Err(format!(
+            "{} meshes side by side at {width}x{height} make {pixels} pixels, more than the \
+             limit of {MAX_SAMPLES}: give a smaller --size",
+            cmd.meshes.len()
+        ));
+    }
     let mut meshes = Vec::with_capacity(cmd.meshes.len());
     for path in &cmd.meshes {
         meshes.push(read_mesh(path).map_err(|e| e.to_string())?);

@@ -2,9 +2,11 @@
 //! OBJ, OFF and STL meshes), meshes and labelled points out (PLY, OBJ, OFF), and
 //! meshes back in (PLY, OBJ, OFF, STL) for evaluation.
 //!
-//! Every reader loads the whole file with `std::fs::read` (inputs are tens of MB at
-//! most) and parses the byte slice in one pass: O(file size) time, memory proportional
-//! to the output. Readers are written for hostile input:
+//! Every reader loads the whole file (inputs are tens of MB, at most
+//! [`crate::limits::MAX_INPUT_BYTES`]; a stream that cannot open a file of its
+//! format fails on its first bytes, see [`bounded`]) and parses the byte slice in
+//! one pass: O(file size) time, memory proportional to the output. Readers are
+//! written for hostile input:
 //! - any malformed file is a [`ReadError`] naming the path, the place (1-based line for
 //!   text, element index or byte offset for binary) and the offending value; never a
 //!   panic (the decoders of other crates run under `quiet_catch`);
@@ -26,6 +28,7 @@ use std::panic::AssertUnwindSafe;
 use std::path::{Path, PathBuf};
 use std::sync::Once;
 
+mod bounded;
 pub mod e57;
 pub mod las;
 pub mod lzf;
@@ -170,9 +173,7 @@ pub fn read_cloud(path: &Path) -> Result<Cloud, ReadError> {
 /// Cost: one read of the file plus one pass over its bytes.
 pub fn read_cloud_with(path: &Path, options: &ReadOptions) -> Result<Cloud, ReadError> {
     let stdin = if is_stdio(path) {
-        let mut data = Vec::new();
-        io::Read::read_to_end(&mut io::stdin().lock(), &mut data)
-            .map_err(|e| ReadError::new(path, ReadErrorKind::Io(e)))?;
+        let data = bounded::read_input(path, options.format.as_deref())?;
         if data.is_empty() {
             return Err(ReadError::new(path, ReadErrorKind::file("no data")));
         }
@@ -213,7 +214,7 @@ pub fn read_cloud_with(path: &Path, options: &ReadOptions) -> Result<Cloud, Read
     }
     let data = match stdin {
         Some(data) => data,
-        None => load(path)?,
+        None => load(path, ext.as_deref())?,
     };
     let cloud = match format {
         CloudFormat::Ply => ply::parse_cloud(&data),
@@ -230,7 +231,10 @@ pub fn read_cloud_with(path: &Path, options: &ReadOptions) -> Result<Cloud, Read
         Ok(c) if c.positions.is_empty() => {
             Err(ReadError::new(path, ReadErrorKind::file("no points")))
         }
-        Ok(c) => Ok(c),
+        Ok(c) => match check_magnitudes(&c.positions) {
+            Ok(()) => Ok(c),
+            Err(kind) => Err(ReadError::new(path, kind)),
+        },
         Err(kind) => Err(ReadError::new(path, kind)),
     }
 }
@@ -247,8 +251,10 @@ pub fn read_mesh(path: &Path) -> Result<Mesh, ReadError> {
         Some("stl") => stl::parse_mesh,
         _ => return Err(unknown_extension(path, ext, MESH_EXTENSIONS)),
     };
-    let data = load(path)?;
-    parse(&data).map_err(|kind| ReadError::new(path, kind))
+    let data = load(path, ext.as_deref())?;
+    parse(&data)
+        .and_then(|mesh| check_magnitudes(&mesh.0).map(|()| mesh))
+        .map_err(|kind| ReadError::new(path, kind))
 }
 
 fn extension(path: &Path) -> Option<String> {
@@ -266,8 +272,9 @@ fn unknown_extension(path: &Path, ext: Option<String>, supported: &'static str) 
     )
 }
 
-fn load(path: &Path) -> Result<Vec<u8>, ReadError> {
-    std::fs::read(path).map_err(|e| ReadError::new(path, ReadErrorKind::Io(e)))
+/// The bytes of `path`, read as `ext`, at most [`crate::limits::MAX_INPUT_BYTES`].
+fn load(path: &Path, ext: Option<&str>) -> Result<Vec<u8>, ReadError> {
+    bounded::read_input(path, ext)
 }
 
 /// Why a file could not be read, with the path it came from.
@@ -319,6 +326,18 @@ pub enum ReadErrorKind {
         at: At,
         /// What is wrong, with the offending value.
         what: String,
+    },
+    /// A position coordinate is finite but larger in magnitude than
+    /// [`MAX_COORDINATE`].
+    TooLarge {
+        /// 0-based vertex (point) number.
+        vertex: u64,
+        /// 1-based line number, for text formats.
+        line: Option<usize>,
+        /// `"x"`, `"y"` or `"z"`.
+        coord: &'static str,
+        /// The value read.
+        value: f64,
     },
     /// A position coordinate is NaN or infinite.
     NonFinite {
@@ -405,6 +424,21 @@ impl fmt::Display for ReadErrorKind {
                 }
                 write!(f, "vertex {vertex}: {coord} is {value}")
             }
+            ReadErrorKind::TooLarge {
+                vertex,
+                line,
+                coord,
+                value,
+            } => {
+                if let Some(n) = line {
+                    write!(f, "line {n}: ")?;
+                }
+                write!(
+                    f,
+                    "vertex {vertex}: {coord} is {value:e}, beyond the largest coordinate \
+                     vsaqem takes ({MAX_COORDINATE:e} in magnitude)"
+                )
+            }
         }
     }
 }
@@ -428,7 +462,14 @@ impl std::error::Error for ReadError {
     }
 }
 
-/// Checks that a position is finite; `vertex` and `line` locate it for the message.
+/// The largest coordinate, in magnitude, a position may have: past float32's
+/// 3.4e38 (the output is then float64), and far enough below float64's
+/// 1.8e308 that the squares and products of the mesh's checks and of `eval`
+/// stay finite (they are right at 1e50 and wrong at 1e60).
+pub const MAX_COORDINATE: f64 = 1e40;
+
+/// Checks that a position is finite and within [`MAX_COORDINATE`]; `vertex`
+/// and `line` locate it for the message.
 pub(crate) fn check_finite(
     p: [f64; 3],
     vertex: u64,
@@ -443,8 +484,25 @@ pub(crate) fn check_finite(
                 value,
             });
         }
+        if value.abs() > MAX_COORDINATE {
+            return Err(ReadErrorKind::TooLarge {
+                vertex,
+                line,
+                coord,
+                value,
+            });
+        }
     }
     Ok(())
+}
+
+/// [`check_finite`] on every position, for the readers that skip the points
+/// that are not finite (PCD, LAS, E57) and as the last word on the others.
+fn check_magnitudes(positions: &[[f64; 3]]) -> Result<(), ReadErrorKind> {
+    positions
+        .iter()
+        .zip(0u64..)
+        .try_for_each(|(&p, i)| check_finite(p, i, None))
 }
 
 thread_local! {
