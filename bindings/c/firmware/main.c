@@ -14,7 +14,7 @@
 /* The CLI's `vsaqem reconstruct --sample sphere --points 1000 --clusters 40
  * --max-clusters 40 --min-fragment 0` runs the same job (on its own sample). */
 #define CLUSTERS 40
-/* Smaller than vsaqem_arena_bytes (the worst case, 201,134 bytes here): core
+/* Smaller than vsaqem_arena_bytes (the worst case, see the README): core
  * checks what this cloud needs as it goes. The program prints the peak. */
 #define BUFFER_BYTES (12 * POINTS + 160 * 1024)
 

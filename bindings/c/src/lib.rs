@@ -31,7 +31,7 @@ use core::ffi::{c_char, c_void};
 use core::fmt::{self, Write};
 use core::mem::{size_of, MaybeUninit};
 use core::ptr;
-use vsaqem_core::{Arena, Error, Params, Partition, Rows, Silent, V3};
+use vsaqem_core::{Arena, Error, Frame, Params, Partition, Rows, Silent, V3};
 
 /// Success.
 pub const VSAQEM_OK: i32 = 0;
@@ -404,49 +404,21 @@ impl Layout {
     }
 }
 
-/// The centring and scaling into core's `[-1, 1]^3`, as the CLI's: `core =
-/// (p - centre) / scale`, in double precision.
-struct Frame {
-    centre: [f64; 3],
-    scale: f64,
+/// `points` into core's coordinates in `frame`, as the CLI makes them.
+fn core_point(frame: &Frame, p: V3) -> V3 {
+    frame.to_core(p.map(f64::from))
 }
 
-impl Frame {
-    /// The frame of the points `which` selects.
-    fn fit(points: &[V3], which: impl Fn(usize) -> bool) -> Frame {
-        let mut lo = [f64::INFINITY; 3];
-        let mut hi = [f64::NEG_INFINITY; 3];
-        let mut any = false;
-        for (_, p) in points.iter().enumerate().filter(|(i, _)| which(*i)) {
-            any = true;
-            for a in 0..3 {
-                lo[a] = lo[a].min(p[a] as f64);
-                hi[a] = hi[a].max(p[a] as f64);
-            }
-        }
-        if !any {
-            return Frame {
-                centre: [0.0; 3],
-                scale: 1.0,
-            };
-        }
-        let centre = [0, 1, 2].map(|a| 0.5 * (lo[a] + hi[a]));
-        let half = (0..3).map(|a| 0.5 * (hi[a] - lo[a])).fold(0.0f64, f64::max);
-        let scale = if half > 0.0 && half.is_finite() {
-            half
-        } else {
-            1.0
-        };
-        Frame { centre, scale }
-    }
-
-    fn to_core(&self, p: V3) -> V3 {
-        [0, 1, 2].map(|a| ((p[a] as f64 - self.centre[a]) / self.scale) as f32)
-    }
-
-    fn to_caller(&self, p: V3) -> V3 {
-        [0, 1, 2].map(|a| (p[a] as f64 * self.scale + self.centre[a]) as f32)
-    }
+/// The frame of the points `which` selects (all: the CLI's frame of the
+/// points read; the kept ones: its frame after cleaning).
+fn fit(points: &[V3], which: impl Fn(usize) -> bool) -> Frame {
+    Frame::fit_each(
+        points
+            .iter()
+            .enumerate()
+            .filter(|&(i, _)| which(i))
+            .map(|(_, p)| p.map(f64::from)),
+    )
 }
 
 /// The pipeline in `buffer` (`len` bytes: the layout's arrays, then an arena
@@ -472,9 +444,9 @@ unsafe fn run(
     // written in full through its pointer before a slice is made of it.
     let at = |offset: usize| unsafe { base.add(offset) };
     let points = unsafe { init_slice(at(layout.points).cast::<V3>(), n, [0.0; 3]) };
-    let mut frame = Frame::fit(given, |_| true);
+    let mut frame = fit(given, |_| true);
     for (p, &g) in points.iter_mut().zip(given) {
-        *p = frame.to_core(g);
+        *p = core_point(&frame, g);
     }
     let arena_len = end as usize - at(layout.arena) as usize;
     let arena_buf = unsafe {
@@ -500,11 +472,11 @@ unsafe fn run(
             rows = scans.map(|linear_scans| Rows { knn, linear_scans });
         } else {
             // The kept points, framed again (as the CLI does), with their normals.
-            frame = Frame::fit(given, |i| keep[i]);
+            frame = fit(given, |i| keep[i]);
             let kept_normals = unsafe { init_slice(at(layout.normals).cast::<V3>(), n, [0.0; 3]) };
             used = 0;
             for i in (0..n).filter(|&i| keep[i]) {
-                points[used] = frame.to_core(given[i]);
+                points[used] = core_point(&frame, given[i]);
                 if let Some(g) = given_normals {
                     kept_normals[used] = g[i];
                 }
@@ -554,7 +526,7 @@ unsafe fn run(
         // inside the buffer.
         unsafe {
             let v = vertices.add(i);
-            v.write(frame.to_caller(v.read()));
+            v.write(frame.to_file(v.read()).map(|x| x as f32));
         }
     }
     out.vertices = vertices.cast::<f32>();
