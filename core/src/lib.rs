@@ -80,7 +80,8 @@
 //!    a face, they are split and the mesh is made again.
 //!
 //! **Infrastructure** beside the phases: [`arena`] (the only memory), [`budget`]
-//! (how much of it a run can need), [`params`], [`error`], [`progress`]
+//! (how much of it a run can need), [`frame`] (into core's coordinates and
+//! back), [`params`], [`error`], [`progress`]
 //! (reporting and cancellation), [`math`] (vectors, the symmetric 3x3
 //! eigenproblem), [`rng`] (the seeded generator), [`union_find`] and [`sample`]
 //! (generated shapes for tests, benchmarks and demos).
@@ -95,6 +96,7 @@ extern crate std;
 pub mod arena;
 pub mod budget;
 pub mod error;
+pub mod frame;
 pub mod hint;
 pub mod math;
 pub mod parallel;
@@ -119,6 +121,7 @@ pub use clustering::partition::{ClusterStats, Clusters};
 pub use clustering::quadric::Planes;
 pub use clustering::{Clustered, Stats};
 pub use error::{Degeneracy, Error, Result};
+pub use frame::Frame;
 pub use math::V3;
 pub use meshing::distance::MeshDistance;
 pub use meshing::fit::FitStats;
