@@ -43,6 +43,9 @@
 //!
 //! **Pre-passes** ([`prepass`], optional; the caller runs them and compacts the
 //! points they keep before reconstructing):
+//! - [`mark_duplicates`]: exact duplicates (bitwise-equal positions), the
+//!   first of each kept; before anything else, since piles of copies defeat
+//!   the neighbour search and look like surface to the fragment filter.
 //! - [`clean()`]: statistical outliers and small isolated fragments, on the exact
 //!   k-NN graph; its arena bound is [`clean_bytes`], never more than
 //!   [`arena_bytes`]. [`clean_with_rows`] also hands back that graph, which
@@ -129,6 +132,7 @@ pub use meshing::MeshingStats;
 pub use parallel::Task;
 pub use params::{Params, Partition, GAP_ROUNDS, MAX_ERROR_ROUNDS, MAX_K, SWEEP_MIN_POINTS};
 pub use prepass::clean::{clean, clean_with_rows, CleanStats};
+pub use prepass::duplicates::mark_duplicates;
 pub use prepass::smooth::{smooth, smooth_bytes};
 pub use progress::{Flow, Progress, Silent, Stage};
 pub use validate::Bounds;

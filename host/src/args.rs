@@ -107,7 +107,7 @@ pub fn read_input(args: &InputArgs, clock: &mut StageClock) -> Result<Prepared, 
         if args.normals == NormalsMode::Ignore {
             cloud.normals = None;
         }
-        Ok(input::prepare(name, cloud))
+        input::prepare(name, cloud)
     })
 }
 

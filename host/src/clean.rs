@@ -12,7 +12,8 @@ use vsaqem_core::{Arena, CleanStats, Error, Params, Rows};
 pub struct Cleaned {
     /// The points after the pre-pass.
     pub input: Prepared,
-    /// Points read, before cleaning.
+    /// Points read, exact duplicates merged, before cleaning (the points
+    /// cleaning works on).
     pub points_read: usize,
     /// What the cleaning filters did (`None`: both are off).
     pub stats: Option<CleanStats>,
@@ -67,7 +68,7 @@ pub fn read_and_clean(
     // What core would refuse first (too few points, all in a plane, ...),
     // then a cluster count that no memory could serve.
     vsaqem_core::validate::check(&input.points, input.normals.as_deref(), params)
-        .map_err(|e| format!("{}: {e}", input.name))?;
+        .map_err(|e| format!("{}: {e}{}", input.name, merged(&input)))?;
     more_points_than_clusters(&input, params, "")?;
     let needed = with_clean((run.most)(n, params), n, params, false);
     // The run takes cleaning's table (no search of its own) unless cleaning
@@ -94,11 +95,27 @@ fn more_points_than_clusters(input: &Prepared, params: &Params, which: &str) -> 
     let n = input.points.len();
     if params.clusters as usize > n {
         return Err(format!(
-            "{}: more clusters than points{which} ({} > {n}): give --clusters at most {n}",
-            input.name, params.clusters
+            "{}: more clusters than points{which} ({} > {n}){}: give --clusters at most {n}",
+            input.name,
+            params.clusters,
+            merged(input)
         ));
     }
     Ok(())
+}
+
+/// What merging exact duplicates left of the points read, for an error about
+/// how few points there are: `" (4 distinct of 200000 read: 199996 exact
+/// duplicates merged)"`, or nothing when there were none.
+fn merged(input: &Prepared) -> String {
+    let (d, n) = (input.duplicates, input.points.len());
+    if d == 0 {
+        return String::new();
+    }
+    format!(
+        " ({n} distinct of {} read: {d} exact duplicates merged)",
+        n + d
+    )
 }
 
 impl RunBytes {
