@@ -446,7 +446,7 @@ mod tests {
         // An arena of no bytes: any work would run out of it first.
         let mut points = [[0.0f32; 3]; 500];
         sample::fill(sample::Shape::Sphere, 1, 0.0, &mut points);
-        let mut buf = [MaybeUninit::<u8>::uninit(); 0];
+        let mut buf: [MaybeUninit<u8>; 0] = [];
         let arena = Arena::new(&mut buf);
         let params = Params {
             clusters: 3,
