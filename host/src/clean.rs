@@ -6,7 +6,7 @@ use crate::args::{arena_buffer, read_input, InputArgs, MemoryArgs};
 use crate::input::Prepared;
 use crate::progress::StageClock;
 use std::mem::MaybeUninit;
-use vsaqem_core::{Arena, CleanStats, Error, Params, Rows};
+use vsaqem_core::{Arena, CleanStats, Degeneracy, Error, Params, Rows};
 
 /// The points of a run, read and cleaned, and the arena buffer core runs in.
 pub struct Cleaned {
@@ -65,6 +65,12 @@ pub fn read_and_clean(
 ) -> Result<Cleaned, String> {
     let input = read_input(input, clock)?;
     let n = input.points.len();
+    // Every point read at one position: merged into one, it is that, not too
+    // few points.
+    if n == 1 && input.duplicates > 0 {
+        let e = Error::Degenerate(Degeneracy::Coincident);
+        return Err(format!("{}: {e}{}", input.name, merged(&input)));
+    }
     // What core would refuse first (too few points, all in a plane, ...),
     // then a cluster count that no memory could serve.
     vsaqem_core::validate::check(&input.points, input.normals.as_deref(), params)
