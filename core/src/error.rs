@@ -18,6 +18,51 @@ pub enum Degeneracy {
     Coplanar,
 }
 
+/// Parameters under which [`crate::reconstruct`] cannot make a mesh of any
+/// cloud ([`crate::Params::meshable`]): refused before any work.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
+pub enum Unmeshable {
+    /// Fewer clusters than the corners of a tetrahedron, the least closed
+    /// surface: the mesh's vertices are the clusters' generators.
+    TooFewClusters {
+        /// `Params::clusters`.
+        clusters: u32,
+    },
+    /// Both weights of the facet score are 0: every facet scores 0, and none
+    /// is ever selected.
+    NoScore,
+    /// The support distance is below the precision of `f32` coordinates in
+    /// `[-1, 1]` ([`crate::params::MIN_EPSILON`]): no point can be told to
+    /// lie within it of a facet, so no facet has support.
+    EpsilonBelowPrecision {
+        /// `Params::epsilon`.
+        epsilon: f32,
+    },
+}
+
+impl fmt::Display for Unmeshable {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            Unmeshable::TooFewClusters { clusters } => write!(
+                f,
+                "{clusters} clusters cannot enclose a volume: a mesh needs at least {}",
+                crate::params::MIN_MESH_CLUSTERS
+            ),
+            Unmeshable::NoScore => f.write_str(
+                "the fitting and coverage weights are both 0: every facet scores 0 and none is selected",
+            ),
+            Unmeshable::EpsilonBelowPrecision { epsilon } => write!(
+                f,
+                "epsilon {epsilon:e} is below {:e}, the precision of the coordinates: no point can \
+                 be told to lie within it of a facet",
+                crate::params::MIN_EPSILON
+            ),
+        }
+    }
+}
+
 /// Why a run failed.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -121,6 +166,9 @@ pub enum Error {
         /// Usable bytes of the arena given.
         capacity: usize,
     },
+    /// [`crate::reconstruct`] was asked to mesh under parameters that cannot
+    /// give a mesh; nothing was computed.
+    Unmeshable(Unmeshable),
     /// The `keep` slice given to [`crate::clean()`] does not match the points.
     KeepLength {
         /// Points given.
@@ -188,6 +236,7 @@ impl fmt::Display for Error {
                 "the neighbour table given is not one for these points (row {row}, entry {entry})"
             ),
             Error::BadParameter { name, value } => write!(f, "parameter {name} = {value} is out of range"),
+            Error::Unmeshable(u) => write!(f, "no mesh can be made: {u}"),
             Error::NormalsLength { points, normals } => {
                 write!(f, "{normals} normals given for {points} points")
             }

@@ -43,6 +43,9 @@
 //!
 //! **Pre-passes** ([`prepass`], optional; the caller runs them and compacts the
 //! points they keep before reconstructing):
+//! - [`mark_duplicates`]: exact duplicates (bitwise-equal positions), the
+//!   first of each kept; before anything else, since piles of copies defeat
+//!   the neighbour search and look like surface to the fragment filter.
 //! - [`clean()`]: statistical outliers and small isolated fragments, on the exact
 //!   k-NN graph; its arena bound is [`clean_bytes`], never more than
 //!   [`arena_bytes`]. [`clean_with_rows`] also hands back that graph, which
@@ -120,7 +123,7 @@ pub use clustering::knn::Neighbours;
 pub use clustering::partition::{ClusterStats, Clusters};
 pub use clustering::quadric::Planes;
 pub use clustering::{Clustered, Stats};
-pub use error::{Degeneracy, Error, Result};
+pub use error::{Degeneracy, Error, Result, Unmeshable};
 pub use frame::Frame;
 pub use math::V3;
 pub use meshing::distance::MeshDistance;
@@ -130,8 +133,12 @@ pub use meshing::problem::{selection_problem, SelectionProblem};
 pub use meshing::select::SelectStats;
 pub use meshing::MeshingStats;
 pub use parallel::Task;
-pub use params::{Params, Partition, GAP_ROUNDS, MAX_ERROR_ROUNDS, MAX_K, SWEEP_MIN_POINTS};
+pub use params::{
+    Params, Partition, GAP_ROUNDS, MAX_ERROR_ROUNDS, MAX_K, MIN_EPSILON, MIN_MESH_CLUSTERS,
+    SWEEP_MIN_POINTS,
+};
 pub use prepass::clean::{clean, clean_with_rows, CleanStats};
+pub use prepass::duplicates::mark_duplicates;
 pub use prepass::smooth::{smooth, smooth_bytes};
 pub use progress::{Flow, Progress, Silent, Stage};
 pub use validate::Bounds;
@@ -194,7 +201,10 @@ pub struct Reconstruction<'a> {
 /// The whole of VSA-QEM: [`cluster`], then rounds of meshing (candidates, scores,
 /// exact selection, a 2-manifold oriented mesh). Where a round leaves clusters
 /// (data) uncovered, those clusters are split and the mesh is made again, up to
-/// `params.refine_rounds` times.
+/// `params.refine_rounds` times. Parameters that cannot give a mesh of any
+/// cloud ([`Params::meshable`]) fail with [`Error::Unmeshable`] before any
+/// work; the mesh may still come out empty (no face selected), which the
+/// caller sees in [`MeshStats::faces`].
 ///
 /// Memory: never more than [`arena_bytes`]`(points.len(), params)` beyond what
 /// `arena` already holds, so a buffer of that size never runs out. A candidate
@@ -231,6 +241,7 @@ pub fn reconstruct_with_rows<'a>(
     params: &Params,
     progress: &mut dyn Progress,
 ) -> Result<Reconstruction<'a>> {
+    params.meshable().map_err(Error::Unmeshable)?;
     // Meshing may use what the worst-case budget leaves (at least its
     // capacity, more where the earlier stages used less than their worst
     // case), never more: so the outcome does not depend on the buffer's size.

@@ -1,6 +1,6 @@
 //! Every tunable of the pipeline, with its unit and default, in one place.
 
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, Unmeshable};
 
 /// Largest supported neighbourhood size.
 pub const MAX_K: usize = 32;
@@ -148,6 +148,16 @@ pub struct Params {
     /// rounds sharp edges. Default 0 (off).
     pub smooth_rounds: u32,
 }
+
+/// Fewest clusters [`crate::reconstruct`] takes: the four corners of a
+/// tetrahedron, the least closed surface.
+pub const MIN_MESH_CLUSTERS: u32 = 4;
+
+/// Smallest [`Params::epsilon`] [`crate::reconstruct`] takes: the relative
+/// precision of `f32` (`f32::EPSILON`, about `1.19e-7`), the spacing of the
+/// coordinates near 1 in `[-1, 1]`. Below it, a point's distance to a facet is
+/// rounding, and at about `1e-19` its square is 0 in `f32`.
+pub const MIN_EPSILON: f32 = f32::EPSILON;
 
 /// Meshing rounds at most that an error bound ([`Params::max_error`]) runs
 /// after the first. Each adds a generator in every cluster with a point beyond
@@ -321,6 +331,28 @@ impl Params {
         self.outlier_sigma > 0.0 || self.min_fragment > 0
     }
 
+    /// Whether [`crate::reconstruct`] can make a mesh under these parameters
+    /// at all, whatever the cloud: at least [`MIN_MESH_CLUSTERS`] clusters, a
+    /// facet score with a positive weight, and `epsilon` at least
+    /// [`MIN_EPSILON`]. Clustering alone ([`crate::cluster`]) needs none of
+    /// this. O(1).
+    pub fn meshable(&self) -> core::result::Result<(), Unmeshable> {
+        if self.clusters < MIN_MESH_CLUSTERS {
+            return Err(Unmeshable::TooFewClusters {
+                clusters: self.clusters,
+            });
+        }
+        if self.fitting_weight == 0.0 && self.coverage_weight == 0.0 {
+            return Err(Unmeshable::NoScore);
+        }
+        if self.epsilon < MIN_EPSILON {
+            return Err(Unmeshable::EpsilonBelowPrecision {
+                epsilon: self.epsilon,
+            });
+        }
+        Ok(())
+    }
+
     /// Check every field against its documented range.
     pub fn validate(&self) -> Result<()> {
         let bad = |name, value: f32| Err(Error::BadParameter { name, value });
@@ -370,5 +402,62 @@ impl Params {
             return bad("max_clusters", self.max_clusters as f32);
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{reconstruct, sample, Arena, Silent};
+    use core::mem::MaybeUninit;
+
+    #[test]
+    fn meshable_refuses_exactly_what_cannot_give_a_mesh() {
+        let ok = Params::default();
+        assert_eq!(ok.meshable(), Ok(()));
+        let p = |f: fn(&mut Params)| {
+            let mut p = Params::default();
+            f(&mut p);
+            p.meshable()
+        };
+        assert_eq!(
+            p(|p| p.clusters = 3),
+            Err(Unmeshable::TooFewClusters { clusters: 3 })
+        );
+        assert_eq!(p(|p| p.clusters = MIN_MESH_CLUSTERS), Ok(()));
+        assert_eq!(
+            p(|p| {
+                p.fitting_weight = 0.0;
+                p.coverage_weight = 0.0
+            }),
+            Err(Unmeshable::NoScore)
+        );
+        assert_eq!(p(|p| p.fitting_weight = 0.0), Ok(()));
+        assert_eq!(p(|p| p.coverage_weight = 0.0), Ok(()));
+        assert_eq!(
+            p(|p| p.epsilon = 1e-45),
+            Err(Unmeshable::EpsilonBelowPrecision { epsilon: 1e-45 })
+        );
+        assert_eq!(p(|p| p.epsilon = MIN_EPSILON), Ok(()));
+    }
+
+    #[test]
+    fn reconstruct_refuses_unmeshable_parameters_before_any_work() {
+        // An arena of no bytes: any work would run out of it first.
+        let mut points = [[0.0f32; 3]; 500];
+        sample::fill(sample::Shape::Sphere, 1, 0.0, &mut points);
+        let mut buf: [MaybeUninit<u8>; 0] = [];
+        let arena = Arena::new(&mut buf);
+        let params = Params {
+            clusters: 3,
+            ..Params::default()
+        };
+        let r = reconstruct(&arena, &points, None, &params, &mut Silent);
+        assert!(matches!(
+            r,
+            Err(Error::Unmeshable(Unmeshable::TooFewClusters {
+                clusters: 3
+            }))
+        ));
     }
 }

@@ -41,7 +41,13 @@ fn main() {
                 continue;
             }
         };
-        let input = prepare(name.clone(), cloud);
+        let input = match prepare(name.clone(), cloud) {
+            Ok(input) => input,
+            Err(e) => {
+                println!("| {name} | failed: {e} |");
+                continue;
+            }
+        };
         let n = input.points.len();
         let mut best = common::Fastest::default();
         let mut stats = None;

@@ -38,7 +38,13 @@ fn main() {
         let Ok(cloud) = read_cloud(&path) else {
             continue;
         };
-        let read = prepare(name.clone(), cloud);
+        let read = match prepare(name.clone(), cloud) {
+            Ok(read) => read,
+            Err(e) => {
+                println!("| {name} | failed: {e} |");
+                continue;
+            }
+        };
         let all = read.original.clone();
         let mut buf =
             arena_buffer(vsaqem_core::clean_bytes(all.len(), &Params::default())).expect("arena");

@@ -119,7 +119,7 @@ pub fn read_input(args: &InputArgs, clock: &mut StageClock) -> Result<Prepared, 
         if args.normals == NormalsMode::Ignore {
             cloud.normals = None;
         }
-        Ok(input::prepare(name, cloud))
+        input::prepare(name, cloud)
     })
 }
 
@@ -186,7 +186,7 @@ impl CleanArgs {
 #[command(next_help_heading = "Clustering")]
 pub struct ClusterArgs {
     /// Initial number of clusters (generators); the output has about this many
-    /// vertices, more where splitting adds some.
+    /// vertices, more where splitting adds some (reconstruct: at least 4).
     #[arg(long, default_value_t = Params::default().clusters)]
     pub clusters: u32,
     /// Cap on clusters that splitting may reach (0: twice --clusters).

@@ -6,13 +6,14 @@ use crate::args::{arena_buffer, read_input, InputArgs, MemoryArgs};
 use crate::input::Prepared;
 use crate::progress::StageClock;
 use std::mem::MaybeUninit;
-use vsaqem_core::{Arena, CleanStats, Error, Params, Rows};
+use vsaqem_core::{Arena, CleanStats, Degeneracy, Error, Params, Rows};
 
 /// The points of a run, read and cleaned, and the arena buffer core runs in.
 pub struct Cleaned {
     /// The points after the pre-pass.
     pub input: Prepared,
-    /// Points read, before cleaning.
+    /// Points read, exact duplicates merged, before cleaning (the points
+    /// cleaning works on).
     pub points_read: usize,
     /// What the cleaning filters did (`None`: both are off).
     pub stats: Option<CleanStats>,
@@ -79,10 +80,16 @@ pub fn read_and_clean(
     }
     let input = read_input(input, clock)?;
     let n = input.points.len();
+    // Every point read at one position: merged into one, it is that, not too
+    // few points.
+    if n == 1 && input.duplicates > 0 {
+        let e = Error::Degenerate(Degeneracy::Coincident);
+        return Err(format!("{}: {e}{}", input.name, merged(&input)));
+    }
     // What core would refuse first (too few points, all in a plane, ...),
     // then a cluster count that no memory could serve.
     vsaqem_core::validate::check(&input.points, input.normals.as_deref(), params)
-        .map_err(|e| format!("{}: {e}", input.name))?;
+        .map_err(|e| format!("{}: {e}{}", input.name, merged(&input)))?;
     more_points_than_clusters(&input, params, "")?;
     let mut buf = arena_buffer(arena_size(n)?)?;
     let (input, stats, rows) =
@@ -104,11 +111,27 @@ fn more_points_than_clusters(input: &Prepared, params: &Params, which: &str) -> 
     let n = input.points.len();
     if params.clusters as usize > n {
         return Err(format!(
-            "{}: more clusters than points{which} ({} > {n}): give --clusters at most {n}",
-            input.name, params.clusters
+            "{}: more clusters than points{which} ({} > {n}){}: give --clusters at most {n}",
+            input.name,
+            params.clusters,
+            merged(input)
         ));
     }
     Ok(())
+}
+
+/// What merging exact duplicates left of the points read, for an error about
+/// how few points there are: `" (4 distinct of 200000 read: 199996 exact
+/// duplicates merged)"`, or nothing when there were none.
+fn merged(input: &Prepared) -> String {
+    let (d, n) = (input.duplicates, input.points.len());
+    if d == 0 {
+        return String::new();
+    }
+    format!(
+        " ({n} distinct of {} read: {d} exact duplicates merged)",
+        n + d
+    )
 }
 
 impl RunBytes {

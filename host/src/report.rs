@@ -98,12 +98,16 @@ pub fn source(args: &InputArgs) -> Source {
 pub struct InputReport {
     /// Where the points come from.
     pub input: Source,
-    /// Points read, invalid ones skipped, before cleaning.
+    /// Points read, invalid ones skipped, before merging duplicates and
+    /// cleaning.
     pub points_read: usize,
     /// Points the reader skipped as invalid (NaN or infinite coordinates in a
     /// PCD, LAS or E57 file, where the format's convention is to skip them),
     /// not counted in `points_read`.
     pub invalid_skipped: usize,
+    /// Points read at the position of an earlier point, bit for bit, and
+    /// merged into it (counted in `points_read`, not in `points`).
+    pub duplicates_merged: usize,
     /// Points after cleaning: those core worked on.
     pub points: usize,
     /// Whether the input gave normals (else core estimates them).
@@ -117,13 +121,15 @@ pub struct InputReport {
 
 impl InputReport {
     /// The report of `input` (points `points` after cleaning, with `normals`)
-    /// read from `source`: `points_read` points before cleaning and `invalid`
-    /// skipped by the reader, `clean` what cleaning with `params` removed
-    /// (`None`: it did not run), `diagonal` in file units.
+    /// read from `source`: `distinct` points before cleaning, after merging
+    /// `duplicates` exact duplicates, and `invalid` skipped by the reader,
+    /// `clean` what cleaning with `params` removed (`None`: it did not run),
+    /// `diagonal` in file units.
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         source: Source,
-        points_read: usize,
+        distinct: usize,
+        duplicates: usize,
         invalid: usize,
         points: usize,
         normals: bool,
@@ -133,8 +139,9 @@ impl InputReport {
     ) -> Self {
         InputReport {
             input: source,
-            points_read,
+            points_read: distinct + duplicates,
             invalid_skipped: invalid,
+            duplicates_merged: duplicates,
             points,
             normals_given: normals,
             diagonal,
@@ -153,13 +160,21 @@ impl InputReport {
             0 => String::new(),
             n => format!(" ({n} invalid skipped)"),
         };
+        let duplicates = match self.duplicates_merged {
+            0 => String::new(),
+            n => format!(
+                ", {} exact duplicates merged ({} distinct)",
+                n,
+                self.points_read - n
+            ),
+        };
         format!(
-            "input      {}: {} points{invalid}, {normals}, bounding-box diagonal {:.6}\n\
+            "input      {}: {} points{invalid}{duplicates}, {normals}, bounding-box diagonal {:.6}\n\
              clean      {}\n",
             self.input,
             self.points_read,
             self.diagonal,
-            self.clean.text(self.points, self.points_read),
+            self.clean.text(self.points, self.points_read - self.duplicates_merged),
         )
     }
 }
@@ -865,6 +880,7 @@ mod tests {
             },
             points_read: 4000,
             invalid_skipped: 544,
+            duplicates_merged: 0,
             points: 4000,
             normals_given: false,
             diagonal: 2.0,
@@ -883,6 +899,43 @@ mod tests {
         assert!(r
             .text()
             .starts_with("input      scan.pcd: 4000 points, normals"));
+    }
+
+    #[test]
+    fn the_input_line_and_fields_give_the_duplicates_merged() {
+        let params = Params::default();
+        let stats = CleanStats {
+            points: 400,
+            kept: 400,
+            pieces: 1,
+            ..CleanStats::default()
+        };
+        let r = InputReport::new(
+            Source::File {
+                path: "scan.xyz".into(),
+            },
+            400,
+            3600,
+            0,
+            400,
+            false,
+            Some(&stats),
+            &params,
+            2.0,
+        );
+        let text = r.text();
+        assert!(
+            text.starts_with(
+                "input      scan.xyz: 4000 points, 3600 exact duplicates merged (400 distinct), \
+                 normals by PCA"
+            ),
+            "{text}"
+        );
+        assert!(text.contains("400 of 400 points kept in 1 piece"), "{text}");
+        let json = serde_json::to_value(&r).unwrap();
+        assert_eq!(json["points_read"], serde_json::json!(4000));
+        assert_eq!(json["duplicates_merged"], serde_json::json!(3600));
+        assert_eq!(json["points"], serde_json::json!(400));
     }
 
     #[test]

@@ -182,7 +182,8 @@ fn a_candidate_graph_too_dense_for_the_meshing_capacity_names_the_option() {
     assert_eq!(r.status.code(), Some(1), "{stderr}");
     assert!(
         stderr.contains("candidate graph is too dense")
-            && stderr.contains("--mesh-bytes-per-cluster, now 1)"),
+            && stderr.contains("--mesh-bytes-per-cluster, now 1;")
+            && stderr.contains("4000 points, 2.0 per cluster of the cap 2000)"),
         "{stderr}"
     );
     assert!(!out.exists());

@@ -84,6 +84,7 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
         input: InputReport::new(
             source(&cmd.input),
             points_read,
+            input.duplicates,
             input.invalid,
             input.points.len(),
             input.normals.is_some(),

@@ -16,13 +16,14 @@ use crate::report::{
 use clap::Args;
 use serde::Serialize;
 use std::path::PathBuf;
-use vsaqem_core::{Error, MeshingStats, Params};
+use vsaqem_core::{Error, MeshingStats, Params, Unmeshable, MIN_EPSILON, MIN_MESH_CLUSTERS};
 
 /// Meshing parameters; defaults are `vsaqem_core::Params::default()`.
 #[derive(Args, Debug, Clone)]
 #[command(next_help_heading = "Meshing")]
 pub struct MeshArgs {
-    /// Support distance of the facet fitting term, fraction of the diagonal.
+    /// Support distance of the facet fitting term, fraction of the diagonal
+    /// (at least 1.1920929e-7, the precision of the coordinates).
     #[arg(long, default_value_t = Params::default().epsilon)]
     pub epsilon: f32,
     /// Alpha of the coverage term, in multiples of the average point spacing.
@@ -31,7 +32,8 @@ pub struct MeshArgs {
     /// Weight of the fitting term in the facet score.
     #[arg(long, default_value_t = Params::default().fitting_weight)]
     pub fitting: f32,
-    /// Weight of the coverage term in the facet score.
+    /// Weight of the coverage term in the facet score (it and --fitting not
+    /// both 0).
     #[arg(long, default_value_t = Params::default().coverage_weight)]
     pub coverage: f32,
     /// Cost of leaving a selected facet's edge without a partner (a hole edge),
@@ -113,6 +115,10 @@ pub struct Cmd {
     /// output and the text to standard error.
     #[arg(long, value_name = "JSON", help_heading = "Output")]
     pub report: Option<PathBuf>,
+    /// Write the mesh even when it has no faces, or only faces without area
+    /// (a run that would give one fails otherwise, nothing written).
+    #[arg(long, help_heading = "Output")]
+    pub allow_empty: bool,
     #[command(flatten)]
     pub memory: MemoryArgs,
     /// No progress bar.
@@ -160,8 +166,9 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
         &cmd.output,
         cmd.report.as_deref(),
     )?;
-    let mut clock = StageClock::new(!cmd.quiet).with_threads(cmd.memory.threads());
     let params = cmd.params();
+    params.meshable().map_err(unmeshable)?;
+    let mut clock = StageClock::new(!cmd.quiet).with_threads(cmd.memory.threads());
     let bytes = RunBytes {
         most: vsaqem_core::arena_bytes,
         least: vsaqem_core::reconstruct_bytes_for,
@@ -190,9 +197,13 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
     );
     let out = out.map_err(|e| match e {
         Error::MeshCapacity { .. } => format!(
-            "{}: {e} (--mesh-bytes-per-cluster, now {})",
+            "{}: {e} (--mesh-bytes-per-cluster, now {}; {} points, {:.1} per cluster of the \
+             cap {})",
             input.name,
-            params.mesh_capacity_per_cluster()
+            params.mesh_capacity_per_cluster(),
+            input.points.len(),
+            input.points.len() as f64 / f64::from(params.cluster_cap().max(1)),
+            params.cluster_cap()
         ),
         Error::ArenaTooSmall { .. } | Error::ArenaTooSmallForMeshing { .. } => {
             format!("{}: {e} (--memory)", input.name)
@@ -233,6 +244,19 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
     let stored: Vec<[f64; 3]> = vertices.iter().map(|&p| layout.stored(p)).collect();
     let check = clock.time("check", || MeshCheck::new(&stored, triangles));
     drop(stored);
+    if let Some(why) = empty(&check, &out.meshing) {
+        if !cmd.allow_empty {
+            return Err(format!(
+                "{}: {why}; nothing written ({}; --allow-empty writes it anyway)",
+                input.name,
+                empty_advice(input.points.len(), &params)
+            ));
+        }
+        eprintln!(
+            "warning: {}: {why}; written as asked (--allow-empty)",
+            input.name
+        );
+    }
     let mesh = MeshOut {
         vertices: &vertices,
         triangles,
@@ -248,6 +272,7 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
         input: InputReport::new(
             source(&cmd.input),
             points_read,
+            input.duplicates,
             input.invalid,
             input.points.len(),
             input.normals.is_some(),
@@ -322,6 +347,70 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
     publish(&report.text(), &cmd.output, cmd.report.as_deref(), || {
         report_json(&report)
     })
+}
+
+/// The error for parameters under which no mesh can be made, in the
+/// options' names.
+fn unmeshable(u: Unmeshable) -> String {
+    match u {
+        Unmeshable::TooFewClusters { clusters } => format!(
+            "--clusters {clusters}: {clusters} clusters cannot enclose a volume (the mesh's \
+             vertices are the clusters' generators, and the least closed surface has \
+             {MIN_MESH_CLUSTERS}); use --clusters {MIN_MESH_CLUSTERS} or more"
+        ),
+        Unmeshable::NoScore => "--fitting 0 and --coverage 0: every facet would score 0 and \
+             none be selected, so the mesh would be empty; give --fitting or --coverage a \
+             positive weight"
+            .to_string(),
+        Unmeshable::EpsilonBelowPrecision { epsilon } => format!(
+            "--epsilon {epsilon:e} is below {MIN_EPSILON:e}, the precision of the float32 \
+             coordinates core works in: no point could be told to lie within it of a facet, \
+             so no facet would have support; use --epsilon {MIN_EPSILON:e} or more (default {})",
+            Params::default().epsilon
+        ),
+        u => format!("no mesh can be made: {u}"),
+    }
+}
+
+/// Why the mesh checked in `check` is not worth writing, when it has no face
+/// with area: none at all, or only degenerate ones (`meshing`'s candidates
+/// say which step gave none).
+fn empty(check: &MeshCheck, meshing: &MeshingStats) -> Option<String> {
+    let t = &check.topology;
+    if t.faces > t.degenerate_faces {
+        return None;
+    }
+    Some(if t.faces == 0 && meshing.candidate_facets == 0 {
+        "the mesh has no faces: the clusters' neighbour graph gave no candidate facet".to_string()
+    } else if t.faces == 0 {
+        format!(
+            "the mesh has no faces: none of the {} candidate facets was selected",
+            meshing.candidate_facets
+        )
+    } else {
+        format!("the mesh's {} faces all have zero area", t.faces)
+    })
+}
+
+/// What to change after [`empty`], for a run on `points` points: more points
+/// per cluster when there are fewer than `--knn` (facets are scored by the
+/// points near them), else a wider support distance.
+fn empty_advice(points: usize, params: &Params) -> String {
+    let clusters = params.clusters;
+    let fewer = if clusters > MIN_MESH_CLUSTERS {
+        " or fewer --clusters"
+    } else {
+        ""
+    };
+    let per_cluster = points as f64 / f64::from(clusters.max(1));
+    if per_cluster < params.k as f64 {
+        format!(
+            "{points} points make {per_cluster:.1} per cluster of --clusters {clusters}, too \
+             few to support facets: give more points{fewer}"
+        )
+    } else {
+        format!("try a larger --epsilon{fewer}")
+    }
 }
 
 /// The tolerance `--precision auto` measures `float32` against, fraction of
