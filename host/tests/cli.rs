@@ -523,6 +523,18 @@ fn completions_and_man_pages_come_from_the_options() {
     assert!(page.contains("max\\-error"), "{page}");
     let (code, _, stderr) = run(&["man".as_ref(), "--dir".as_ref(), d.join("nope").as_os_str()]);
     assert_eq!(code, Some(1), "{stderr}");
+    // A page that cannot be written is an error, and leaves no temporary file.
+    std::fs::remove_file(d.join("vsaqem.1")).unwrap();
+    std::fs::create_dir(d.join("vsaqem.1")).unwrap();
+    let (code, _, stderr) = run(&["man".as_ref(), "--dir".as_ref(), d.as_os_str()]);
+    assert_eq!(code, Some(1), "{stderr}");
+    assert!(stderr.contains("vsaqem.1: cannot write"), "{stderr}");
+    let left: Vec<_> = std::fs::read_dir(&d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .filter(|f| f.starts_with('.'))
+        .collect();
+    assert!(left.is_empty(), "left: {left:?}");
 }
 
 #[cfg(unix)]
