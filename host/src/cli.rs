@@ -3,6 +3,7 @@
 //! definition (`vsaqem completions SHELL`, `vsaqem man`).
 
 use crate::cmd;
+use crate::io::write_atomic;
 use crate::stdout;
 use clap::{CommandFactory, Parser, Subcommand};
 use clap_complete::Shell;
@@ -96,8 +97,33 @@ pub fn run(command: &Command) -> Result<(), String> {
             if !dir.is_dir() {
                 return Err(format!("{}: not a directory", dir.display()));
             }
-            clap_mangen::generate_to(Cli::command(), dir)
-                .map_err(|e| format!("{}: cannot write the man pages: {e}", dir.display()))
+            for (name, page) in man_pages()? {
+                write_atomic(&dir.join(name), |w| w.write_all(&page)).map_err(|e| e.to_string())?;
+            }
+            Ok(())
         }
     }
+}
+
+/// Every man page as `(file name, roff)`, as `clap_mangen::generate_to` names
+/// and renders them, made before any is written; they are then written as
+/// [`write_atomic`] writes (`generate_to` truncates each file and writes it in
+/// place, so a failure could leave half a page).
+fn man_pages() -> Result<Vec<(String, Vec<u8>)>, String> {
+    fn add(cmd: &clap::Command, pages: &mut Vec<(String, Vec<u8>)>) -> Result<(), String> {
+        for sub in cmd.get_subcommands().filter(|s| !s.is_hide_set()) {
+            add(sub, pages)?;
+        }
+        let man = clap_mangen::Man::new(cmd.clone());
+        let mut page = Vec::new();
+        man.render(&mut page)
+            .map_err(|e| format!("cannot make the man page: {e}"))?;
+        pages.push((man.get_filename(), page));
+        Ok(())
+    }
+    let mut cmd = Cli::command().disable_help_subcommand(true);
+    cmd.build();
+    let mut pages = Vec::new();
+    add(&cmd, &mut pages)?;
+    Ok(pages)
 }

@@ -7,7 +7,9 @@
 //! written in place, so only its existence is checked.
 
 use crate::io::is_stdio;
+use crate::io::write::create_scratch;
 use std::fs;
+use std::io;
 use std::path::{Path, PathBuf};
 
 /// Checks that a run reading `input` (`None`: a built-in sample) can write
@@ -88,7 +90,8 @@ fn directory(p: &Path) -> &Path {
 }
 
 /// Whether `path` (given as `flag`) can be written as `write_atomic` writes
-/// it: not a directory, in a directory that exists and takes a new file.
+/// it: not a directory, in a directory that exists and takes a new file, with
+/// a name the file system takes (not over its length limit).
 fn writable(flag: &str, path: &Path) -> Result<(), String> {
     if is_stdio(path) {
         return Ok(());
@@ -96,37 +99,38 @@ fn writable(flag: &str, path: &Path) -> Result<(), String> {
     let shown = path.display();
     // A symbolic link is followed: the file it names is replaced.
     let target = fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
-    match fs::metadata(&target) {
+    let unusable = match fs::metadata(&target) {
         Ok(m) if m.is_dir() => return Err(format!("{shown}: {flag} names a directory")),
         Ok(m) if !m.is_file() => return Ok(()),
-        _ => {}
-    }
-    let Some(name) = target.file_name() else {
-        return Err(format!("{shown}: {flag} needs a file name"));
+        Ok(_) => None,
+        Err(e) if e.kind() == io::ErrorKind::NotFound => None,
+        // A name longer than the file system takes, a loop of links, or a
+        // directory that does not exist or cannot be searched (said below).
+        Err(e) => Some(e),
     };
+    if target.file_name().is_none() {
+        return Err(format!("{shown}: {flag} needs a file name"));
+    }
     let dir = directory(&target);
     match fs::metadata(dir) {
         Ok(m) if m.is_dir() => {}
         Ok(_) => return Err(format!("{shown}: {} is not a directory", dir.display())),
         Err(_) => return Err(format!("{shown}: directory {} not found", dir.display())),
     }
-    let mut probe = std::ffi::OsString::from(".");
-    probe.push(name);
-    probe.push(format!(".{}.probe", std::process::id()));
-    let probe = dir.join(probe);
-    match fs::OpenOptions::new()
-        .write(true)
-        .create_new(true)
-        .open(&probe)
-    {
-        Ok(_) => {
+    match create_scratch(dir, "probe") {
+        Ok((probe, _)) => {
             let _ = fs::remove_file(&probe);
-            Ok(())
         }
-        Err(e) => Err(format!(
-            "{shown}: cannot write in directory {}: {e}",
-            dir.display()
-        )),
+        Err(e) => {
+            return Err(format!(
+                "{shown}: cannot write in directory {}: {e}",
+                dir.display()
+            ))
+        }
+    }
+    match unusable {
+        Some(e) => Err(format!("{shown}: {flag} cannot be created: {e}")),
+        None => Ok(()),
     }
 }
 

@@ -4,6 +4,8 @@
 //! says why. (A stdout closed before the start is `/dev/null` to a Rust
 //! program: the runtime opens it there, so writing to it succeeds.) The same
 //! holds for standard error ([`eprint()`]), where `eprint!` would panic.
+//! A warning ([`warn()`]) that stderr cannot take is dropped: it is advice
+//! about a result that stands, not the result.
 
 use std::io::{self, BufWriter, Write};
 
@@ -35,4 +37,11 @@ pub fn eprint(text: &str) -> Result<(), String> {
     err.write_all(text.as_bytes())
         .and_then(|()| err.flush())
         .map_err(|e| format!("cannot write to standard error: {e}"))
+}
+
+/// Writes the warning `line` and a newline to stderr (`eprintln!` without its
+/// panic), or drops it when stderr cannot take it (closed, full): the run it
+/// warns about has its result either way.
+pub fn warn(line: std::fmt::Arguments) {
+    let _ = eprint(&format!("{line}\n"));
 }

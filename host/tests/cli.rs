@@ -357,6 +357,24 @@ fn where_a_run_writes_is_checked_before_any_work_and_named_once() {
             d.join("dir.ply"),
         ),
         (
+            vec![
+                "-o".into(),
+                d.join("mesh.ply").into(),
+                "--report".into(),
+                d.join("dir.ply").into(),
+            ],
+            "--report names a directory",
+            d.join("dir.ply"),
+        ),
+        (
+            vec![
+                "-o".into(),
+                d.join(format!("{}.ply", "a".repeat(252))).into(),
+            ],
+            "-o cannot be created: File name too long",
+            d.join(format!("{}.ply", "a".repeat(252))),
+        ),
+        (
             vec!["-o".into(), d.join("mesh.wrl").into()],
             "unknown mesh extension",
             d.join("mesh.wrl"),
@@ -406,6 +424,47 @@ fn where_a_run_writes_is_checked_before_any_work_and_named_once() {
         1,
         "{stderr}"
     );
+}
+
+#[test]
+fn an_output_name_at_the_length_limit_is_written_and_a_failed_run_leaves_nothing() {
+    let d = dir("long_name");
+    // 250 and 251 bytes: legal (NAME_MAX is 255), but not with a suffix.
+    let stem = "a".repeat(246);
+    let (mesh, json) = (
+        d.join(format!("{stem}.ply")),
+        d.join(format!("{stem}.json")),
+    );
+    let r = run_with_report("reconstruct", common::SMALL, &mesh, &json);
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(r.status.code(), Some(0), "{stderr}");
+    assert!(std::fs::read(&mesh).unwrap().starts_with(b"ply\n"));
+    common::field(&std::fs::read_to_string(&json).unwrap(), "schema_version");
+    std::fs::remove_file(&mesh).unwrap();
+    std::fs::remove_file(&json).unwrap();
+    // A run that fails after its work (refinement towards a bound it cannot
+    // meet leaves too few points per cluster for meshing's memory) leaves
+    // neither file nor a temporary one.
+    let r = run_with_report(
+        "reconstruct",
+        [
+            "--sample",
+            "sphere",
+            "--points",
+            "2000",
+            "--clusters",
+            "400",
+            "--max-error",
+            "0.00001",
+        ],
+        &mesh,
+        &json,
+    );
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(r.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("meshing needs more"), "{stderr}");
+    let left: Vec<_> = std::fs::read_dir(&d).unwrap().collect();
+    assert!(left.is_empty(), "left: {left:?}");
 }
 
 #[test]
@@ -464,6 +523,18 @@ fn completions_and_man_pages_come_from_the_options() {
     assert!(page.contains("max\\-error"), "{page}");
     let (code, _, stderr) = run(&["man".as_ref(), "--dir".as_ref(), d.join("nope").as_os_str()]);
     assert_eq!(code, Some(1), "{stderr}");
+    // A page that cannot be written is an error, and leaves no temporary file.
+    std::fs::remove_file(d.join("vsaqem.1")).unwrap();
+    std::fs::create_dir(d.join("vsaqem.1")).unwrap();
+    let (code, _, stderr) = run(&["man".as_ref(), "--dir".as_ref(), d.as_os_str()]);
+    assert_eq!(code, Some(1), "{stderr}");
+    assert!(stderr.contains("vsaqem.1: cannot write"), "{stderr}");
+    let left: Vec<_> = std::fs::read_dir(&d)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().into_string().unwrap())
+        .filter(|f| f.starts_with('.'))
+        .collect();
+    assert!(left.is_empty(), "left: {left:?}");
 }
 
 #[cfg(unix)]

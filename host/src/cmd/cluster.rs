@@ -10,6 +10,7 @@ use crate::report::{
     publish, report_json, source, ClusteringReport, Header, InputReport, ParamsReport, RunParams,
     RunReport, StagePeaks,
 };
+use crate::stdout;
 use clap::Args;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -119,11 +120,11 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
     };
     let c = &report.clustering;
     if let Some((why, true)) = c.tolerance_unmet(params.split_rounds) {
-        eprintln!(
+        stdout::warn(format_args!(
             "warning: {}: {why}; largest error {:.3}% of the diagonal",
             input.name,
             c.max_error_relative * 100.0
-        );
+        ));
     }
     publish(&report.text(), &cmd.output, cmd.report.as_deref(), || {
         report_json(&report)

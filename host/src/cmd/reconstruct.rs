@@ -13,6 +13,7 @@ use crate::report::{
     publish, report_json, source, ClusteringReport, FileReport, Header, InputReport, MeshCheck,
     ParamsReport, RunParams, RunReport, StagePeaks,
 };
+use crate::stdout;
 use clap::Args;
 use serde::Serialize;
 use std::path::PathBuf;
@@ -307,14 +308,14 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
     };
     let (c, m) = (&report.clustering, &report.meshing);
     if let Some((why, true)) = c.tolerance_unmet(params.split_rounds) {
-        eprintln!(
+        stdout::warn(format_args!(
             "warning: {}: {why}; largest error {:.3}% of the diagonal",
             input.name,
             c.max_error_relative * 100.0
-        );
+        ));
     }
     if let Some(over) = m.max_error_missed() {
-        eprintln!(
+        stdout::warn(format_args!(
             "warning: {}: --max-error {} not met: the farthest point is {:.3}% of the \
              diagonal from the mesh ({:.3}% over) after {} refinement rounds with {} \
              clusters: {}",
@@ -325,10 +326,10 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
             m.refine_rounds,
             c.clusters,
             report.max_error_stop(),
-        );
+        ));
     }
     if report.file.coarser_than_auto() {
-        eprintln!(
+        stdout::warn(format_args!(
             "warning: {}: {} holds float32 coordinates, which moved vertices by up to {:.3e} \
              (float32 steps {:.3e} at the largest coordinate, over the {:.3e} that \
              --precision auto allows); {}",
@@ -342,7 +343,7 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
             } else {
                 "--precision auto or f64 keeps them"
             }
-        );
+        ));
     }
     publish(&report.text(), &cmd.output, cmd.report.as_deref(), || {
         report_json(&report)

@@ -2,7 +2,8 @@
 //! labelled points as binary PLY, and meshes as PLY, OBJ, OFF, STL or glTF binary
 //! ([`mesh`], [`glb`]).
 //!
-//! [`write_atomic`] writes a hidden temporary file beside the target, syncs it and renames
+//! [`write_atomic`] writes a hidden temporary file beside the target (a short name of its
+//! own, so a target's name may be as long as the file system allows), syncs it and renames
 //! it over the target, so the target is either the old file or the complete new one.
 //! Targets that are not regular files (`/dev/null`, `/dev/stdout`, a pipe) are written
 //! in place: renaming over them would replace the device with a plain file. A symbolic
@@ -16,6 +17,7 @@ use std::fmt;
 use std::fs::{self, File};
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
 
 pub mod glb;
 pub mod mesh;
@@ -58,8 +60,33 @@ impl Drop for TempGuard {
     }
 }
 
+/// A new hidden file in `dir`, `.vsaqem-<pid>-<n>.<kind>`, made with `create_new`
+/// (never an existing file, whoever made it), and its path. The name is under
+/// 50 bytes whatever the target's (for a `kind` of a few letters), so a target whose name is at the file
+/// system's limit (255 bytes) still has one; `<n>` counts the calls of this
+/// process, so no two calls get one name.
+pub(crate) fn create_scratch(dir: &Path, kind: &str) -> io::Result<(PathBuf, File)> {
+    static CALLS: AtomicU64 = AtomicU64::new(0);
+    let pid = std::process::id();
+    let mut tries = 0;
+    loop {
+        let n = CALLS.fetch_add(1, Ordering::Relaxed);
+        let path = dir.join(format!(".vsaqem-{pid}-{n}.{kind}"));
+        match fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&path)
+        {
+            // Left by another process with this pid (a crashed run, another
+            // pid namespace): take the next number.
+            Err(e) if e.kind() == io::ErrorKind::AlreadyExists && tries < 64 => tries += 1,
+            r => return r.map(|file| (path, file)),
+        }
+    }
+}
+
 /// Writes `path` atomically: `f` writes into a buffered hidden temporary file in the
-/// same directory (`.<name>.<pid>.tmp`), which is flushed, `sync_all`ed and renamed over
+/// same directory ([`create_scratch`]), which is flushed, `sync_all`ed and renamed over
 /// `path`. On any error (or panic in `f`) the temporary file is removed and an existing
 /// `path` is left untouched. A `path` that exists and is not a regular file or a
 /// directory (a device, a pipe, a socket) is opened and written directly, without the
@@ -90,22 +117,17 @@ pub fn write_atomic(
             path = &resolved;
         }
     }
-    let name = path.file_name().ok_or_else(|| {
-        fail(io::Error::new(
+    if path.file_name().is_none() {
+        return Err(fail(io::Error::new(
             io::ErrorKind::InvalidInput,
             "the path has no file name",
-        ))
-    })?;
+        )));
+    }
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
     };
-    let mut tmp_name = std::ffi::OsString::from(".");
-    tmp_name.push(name);
-    tmp_name.push(format!(".{}.tmp", std::process::id()));
-    let tmp = dir.join(tmp_name);
-
-    let file = File::create(&tmp).map_err(fail)?;
+    let (tmp, file) = create_scratch(dir, "tmp").map_err(fail)?;
     let mut guard = TempGuard {
         path: Some(tmp.clone()),
     };

@@ -305,6 +305,45 @@ fn a_mesh_that_cannot_be_written_leaves_no_file_in_any_format() {
 }
 
 #[test]
+fn a_target_name_at_the_length_limit_is_written_and_a_failure_leaves_nothing() {
+    let dir = scratch_dir("long");
+    // 250 bytes: legal (NAME_MAX is 255), longer than 255 with a suffix.
+    let path = dir.join(format!("{}.ply", "a".repeat(246)));
+    write_atomic(&path, |w| w.write_all(b"whole")).unwrap();
+    assert_eq!(fs::read(&path).unwrap(), b"whole");
+    let e = write_atomic(&path, |w| {
+        w.write_all(b"half")?;
+        Err(io::Error::other("refused"))
+    })
+    .unwrap_err();
+    assert!(e.to_string().ends_with("cannot write: refused"), "{e}");
+    let left: Vec<_> = fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    assert_eq!(
+        left,
+        std::slice::from_ref(&path),
+        "a temporary file was left"
+    );
+    assert_eq!(fs::read(&path).unwrap(), b"whole");
+    fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn scratch_names_are_short_and_new_for_every_call() {
+    let dir = scratch_dir("scratch");
+    let (a, _) = create_scratch(&dir, "tmp").unwrap();
+    let (b, _) = create_scratch(&dir, "tmp").unwrap();
+    assert_ne!(a, b);
+    for p in [&a, &b] {
+        let name = p.file_name().unwrap().to_str().unwrap();
+        assert!(name.starts_with(".vsaqem-") && name.len() < 50, "{name}");
+    }
+    fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
 fn obj_keeps_full_f64_precision() {
     let mut out = Vec::new();
     let x = 0.1f64 + 0.2;
