@@ -100,6 +100,23 @@ static void sphere_checks(void) {
               "a second run, in %zu bytes, differs: status %d %s", small, s2, m2.message);
     }
 
+    /* Every point stored three times: merged, the same mesh as stored once. */
+    float *thrice = malloc(9 * n * sizeof *thrice);
+    for (size_t c = 0; c < 3; c++) memcpy(thrice + 3 * n * c, pts, 3 * n * sizeof *pts);
+    size_t len3x = vsaqem_arena_bytes(3 * n, &p);
+    unsigned char *buf3x = malloc(len3x);
+    s = vsaqem_reconstruct(buf, len, pts, n, NULL, &p, &m);
+    int32_t s3 = vsaqem_reconstruct(buf3x, len3x, thrice, 3 * n, NULL, &p, &m2);
+    CHECK(s == VSAQEM_OK && s3 == VSAQEM_OK && m2.duplicates_merged == 2 * n &&
+              m2.points_used == n && m2.vertex_count == m.vertex_count &&
+              m2.triangle_count == m.triangle_count &&
+              !memcmp(m2.vertices, m.vertices, 12 * m.vertex_count) &&
+              !memcmp(m2.triangles, m.triangles, 12 * m.triangle_count),
+          "stored three times: status %d, %zu merged, %zu used: %s", s3, m2.duplicates_merged,
+          m2.points_used, m2.message);
+    free(buf3x);
+    free(thrice);
+
     /* Normals given: still a closed sphere. */
     float *nrm = malloc(3 * n * sizeof *nrm);
     for (size_t i = 0; i < 3 * n; i++) nrm[i] = (pts[i] - centre[i % 3]) / 2.5f;

@@ -153,8 +153,11 @@ typedef struct vsaqem_mesh {
   uint32_t components;
   // Clusters the mesh was made from.
   uint32_t clusters;
-  // Points reconstructed (after cleaning).
+  // Points reconstructed (after merging duplicates and cleaning).
   size_t points_used;
+  // Exact duplicates merged into the first point at their position (its
+  // normal kept).
+  size_t duplicates_merged;
   // Points cleaning removed (outliers and small fragments).
   size_t points_removed;
   // Distance from the farthest point used to the mesh, in the points' units.

@@ -17,8 +17,8 @@
 //! ```
 //!
 //! It runs what `vsaqem reconstruct` runs on the points, in the same order:
-//! the points are centred and scaled into core's `[-1, 1]^3` frame (in double
-//! precision), cleaned (`min_fragment`, `outlier_sigma`; the kept points
+//! exact duplicates merged (the first copy kept), the points centred and
+//! scaled into core's `[-1, 1]^3` frame (in double precision), cleaned (`min_fragment`, `outlier_sigma`; the kept points
 //! framed again), smoothed (`smooth_rounds`), reconstructed, and the vertices
 //! mapped back to the caller's coordinates. The CLI also puts clouds of
 //! 131,072 points or more into a spatial order first (a speed measure): below
@@ -31,6 +31,7 @@ use core::ffi::{c_char, c_void};
 use core::fmt::{self, Write};
 use core::mem::{size_of, MaybeUninit};
 use core::ptr;
+use vsaqem_core::prepass::duplicates::f64_bits;
 use vsaqem_core::{Arena, Error, Frame, Params, Partition, Rows, Silent, V3};
 
 /// Success.
@@ -166,8 +167,11 @@ pub struct vsaqem_mesh {
     pub components: u32,
     /// Clusters the mesh was made from.
     pub clusters: u32,
-    /// Points reconstructed (after cleaning).
+    /// Points reconstructed (after merging duplicates and cleaning).
     pub points_used: usize,
+    /// Exact duplicates merged into the first point at their position (its
+    /// normal kept).
+    pub duplicates_merged: usize,
     /// Points cleaning removed (outliers and small fragments).
     pub points_removed: usize,
     /// Distance from the farthest point used to the mesh, in the points' units.
@@ -354,12 +358,16 @@ pub unsafe extern "C" fn vsaqem_reconstruct(
 /// Where each array lies in the caller's buffer, as offsets from its first
 /// 8-byte boundary, and how long the buffer must be.
 struct Layout {
-    /// The points in core coordinates (`n` V3), cleaned in place.
+    /// The points in core coordinates (`n` V3), merged and cleaned in place.
     points: usize,
-    /// The kept points' normals (`n` V3), when cleaning may drop points.
+    /// The normals of the points kept (`n` V3).
     normals: usize,
-    /// Cleaning's keep flags (`n` bytes).
-    keep: usize,
+    /// Which point of the caller's each kept point is (`n` u32); the
+    /// duplicate merge's sort order before that.
+    index: usize,
+    /// The duplicate merge's first-at-its-position flags, then cleaning's keep
+    /// flags (`n` bytes).
+    flags: usize,
     /// Cleaning's k-NN table (`n k` u32), which the run takes when every
     /// point is kept.
     knn: usize,
@@ -374,29 +382,28 @@ impl Layout {
     fn new(n: usize, params: &Params) -> Option<Layout> {
         let pad = |b: usize| b.checked_add(7).map(|b| b & !7);
         let v3s = pad(n.checked_mul(size_of::<V3>())?)?;
-        let cleans = params.cleans();
         let k = params.k.clamp(1, vsaqem_core::MAX_K);
-        let (normals, keep, knn) = if cleans {
-            (v3s, pad(n)?, pad(n.checked_mul(k)?.checked_mul(4)?)?)
-        } else {
-            (0, 0, 0)
-        };
         let mut arena =
             vsaqem_core::arena_bytes(n, params).max(vsaqem_core::smooth_bytes(n, params));
-        if cleans {
+        let knn = if params.cleans() {
             arena = arena.max(vsaqem_core::clean_bytes_for(n, params, true));
-        }
+            pad(n.checked_mul(k)?.checked_mul(4)?)?
+        } else {
+            0
+        };
         let points = 0;
-        let normals_at = points + v3s;
-        let keep_at = normals_at.checked_add(normals)?;
-        let knn_at = keep_at.checked_add(keep)?;
+        let normals = points + v3s;
+        let index = normals.checked_add(v3s)?;
+        let flags = index.checked_add(pad(n.checked_mul(4)?)?)?;
+        let knn_at = flags.checked_add(pad(n)?)?;
         let arena_at = knn_at.checked_add(knn)?;
         let total = arena_at.checked_add(arena)?.checked_add(7)?;
         // `arena_bytes` saturates instead of overflowing.
         (arena < usize::MAX / 2).then_some(Layout {
             points,
-            normals: normals_at,
-            keep: keep_at,
+            normals,
+            index,
+            flags,
             knn: knn_at,
             arena: arena_at,
             total,
@@ -409,16 +416,10 @@ fn core_point(frame: &Frame, p: V3) -> V3 {
     frame.to_core(p.map(f64::from))
 }
 
-/// The frame of the points `which` selects (all: the CLI's frame of the
-/// points read; the kept ones: its frame after cleaning).
-fn fit(points: &[V3], which: impl Fn(usize) -> bool) -> Frame {
-    Frame::fit_each(
-        points
-            .iter()
-            .enumerate()
-            .filter(|&(i, _)| which(i))
-            .map(|(_, p)| p.map(f64::from)),
-    )
+/// The frame of `points[index]` (as the CLI fits it to the points it
+/// keeps).
+fn fit(points: &[V3], index: &[u32]) -> Frame {
+    Frame::fit_each(index.iter().map(|&i| points[i as usize].map(f64::from)))
 }
 
 /// The pipeline in `buffer` (`len` bytes: the layout's arrays, then an arena
@@ -443,26 +444,56 @@ unsafe fn run(
     // `[base, end)` (see `Layout`), inside the buffer, 8-byte aligned; each is
     // written in full through its pointer before a slice is made of it.
     let at = |offset: usize| unsafe { base.add(offset) };
-    let points = unsafe { init_slice(at(layout.points).cast::<V3>(), n, [0.0; 3]) };
-    let mut frame = fit(given, |_| true);
-    for (p, &g) in points.iter_mut().zip(given) {
-        *p = core_point(&frame, g);
+    let index = unsafe { init_slice(at(layout.index).cast::<u32>(), n, 0) };
+    let flags = unsafe { init_slice(at(layout.flags).cast::<bool>(), n, false) };
+    // Exact duplicates merged, the first copy kept, as the CLI merges them.
+    let copies = vsaqem_core::mark_duplicates(
+        given,
+        |p| f64_bits(&p.map(f64::from)),
+        &mut *index,
+        &mut *flags,
+    )? as usize;
+    let mut used = 0;
+    for (i, _) in flags.iter().enumerate().filter(|&(_, &first)| first) {
+        index[used] = i as u32;
+        used += 1;
     }
+    let points = unsafe { init_slice(at(layout.points).cast::<V3>(), n, [0.0; 3]) };
+    let kept_normals = unsafe { init_slice(at(layout.normals).cast::<V3>(), n, [0.0; 3]) };
+    let mut frame = fit(given, &index[..used]);
+    let place = |frame: &Frame, index: &[u32], points: &mut [V3], normals: &mut [V3]| {
+        for (j, &i) in index.iter().enumerate() {
+            points[j] = core_point(frame, given[i as usize]);
+            if let Some(g) = given_normals {
+                normals[j] = g[i as usize];
+            }
+        }
+    };
+    place(&frame, &index[..used], points, kept_normals);
     let arena_len = end as usize - at(layout.arena) as usize;
     let arena_buf = unsafe {
         core::slice::from_raw_parts_mut(at(layout.arena).cast::<MaybeUninit<u8>>(), arena_len)
     };
     let arena = Arena::new(arena_buf);
-    let mut used = n;
-    let mut normals = given_normals;
+    let merged = used;
     let mut rows = None;
     if params.cleans() {
-        let keep = unsafe { init_slice(at(layout.keep).cast::<bool>(), n, true) };
-        let knn_len = n * params.k;
-        let knn = unsafe { init_slice(at(layout.knn).cast::<u32>(), knn_len, 0) };
+        // Cleaning would run out partway in a smaller arena: say so first,
+        // as core does for the run.
+        let needed = vsaqem_core::clean_bytes_for(used, params, true);
+        if arena_len < needed {
+            return Err(Failure::Core(Error::ArenaTooSmall {
+                needed,
+                capacity: arena_len,
+                reverse_edges: None,
+            }));
+        }
+        let keep = &mut flags[..used];
+        keep.fill(true);
+        let knn = unsafe { init_slice(at(layout.knn).cast::<u32>(), used * params.k, 0) };
         let (stats, scans) = vsaqem_core::clean_with_rows(
             &arena,
-            points,
+            &points[..used],
             params,
             keep,
             Some(&mut *knn),
@@ -472,19 +503,19 @@ unsafe fn run(
             rows = scans.map(|linear_scans| Rows { knn, linear_scans });
         } else {
             // The kept points, framed again (as the CLI does), with their normals.
-            frame = fit(given, |i| keep[i]);
-            let kept_normals = unsafe { init_slice(at(layout.normals).cast::<V3>(), n, [0.0; 3]) };
-            used = 0;
-            for i in (0..n).filter(|&i| keep[i]) {
-                points[used] = core_point(&frame, given[i]);
-                if let Some(g) = given_normals {
-                    kept_normals[used] = g[i];
+            let mut kept = 0;
+            for j in 0..used {
+                if keep[j] {
+                    index[kept] = index[j];
+                    kept += 1;
                 }
-                used += 1;
             }
-            normals = given_normals.map(|_| &kept_normals[..used]);
+            used = kept;
+            frame = fit(given, &index[..used]);
+            place(&frame, &index[..used], points, kept_normals);
         }
     }
+    let normals = given_normals.map(|_| &kept_normals[..used]);
     let points = &mut points[..used];
     if params.smooth_rounds > 0 {
         rows = None;
@@ -512,7 +543,8 @@ unsafe fn run(
     out.components = mesh.stats.components;
     out.clusters = r.clustered.clusters.generators.len() as u32;
     out.points_used = used;
-    out.points_removed = n - used;
+    out.duplicates_merged = copies;
+    out.points_removed = merged - used;
     out.diagonal = r.clustered.bounds.diag as f64 * frame.scale;
     // Core measures it as a fraction of the diagonal.
     out.max_distance = mesh.stats.distance.max as f64 * out.diagonal;
@@ -640,6 +672,7 @@ fn empty_mesh() -> vsaqem_mesh {
         components: 0,
         clusters: 0,
         points_used: 0,
+        duplicates_merged: 0,
         points_removed: 0,
         max_distance: 0.0,
         diagonal: 0.0,
