@@ -4,11 +4,13 @@
 //! raises [`Error`] (a `ValueError`) with the CLI's message where the CLI would
 //! exit 1.
 
+use clap::Parser;
 use numpy::ndarray::ArrayView2;
 use numpy::{PyArray1, PyArray2, PyArrayMethods, PyUntypedArray, PyUntypedArrayMethods};
 use pyo3::create_exception;
-use pyo3::exceptions::PyValueError;
+use pyo3::exceptions::{PyTypeError, PyUserWarning, PyValueError};
 use pyo3::prelude::*;
+use pyo3::types::{PyBool, PyDict};
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -34,7 +36,8 @@ fn rows3(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<[f64; 3]>> {
             "{what}: expected shape (N, 3), got {shape:?}"
         )));
     }
-    let collect = |v: ArrayView2<'_, f64>| v.rows().into_iter().map(|r| [r[0], r[1], r[2]]).collect();
+    let collect =
+        |v: ArrayView2<'_, f64>| v.rows().into_iter().map(|r| [r[0], r[1], r[2]]).collect();
     if let Ok(a) = array.cast::<PyArray2<f64>>() {
         return Ok(collect(a.readonly().as_array()));
     }
@@ -83,9 +86,8 @@ fn triangles3(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Vec<[u32; 3]>> {
         )));
     }
     let index = |i: usize, v: i64| {
-        u32::try_from(v).map_err(|_| {
-            Error::new_err(format!("{what}: triangle {i} has vertex index {v}"))
-        })
+        u32::try_from(v)
+            .map_err(|_| Error::new_err(format!("{what}: triangle {i} has vertex index {v}")))
     };
     macro_rules! rows {
         ($t:ty) => {
@@ -150,8 +152,16 @@ impl Cloud {
         format!(
             "Cloud({} points{}{})",
             self.points.bind(py).shape()[0],
-            if self.normals.is_some() { ", normals" } else { "" },
-            if self.colors.is_some() { ", colors" } else { "" }
+            if self.normals.is_some() {
+                ", normals"
+            } else {
+                ""
+            },
+            if self.colors.is_some() {
+                ", colors"
+            } else {
+                ""
+            }
         )
     }
 }
@@ -238,8 +248,266 @@ fn evaluate<'py>(
     json(py, &text.map_err(Error::new_err)?)
 }
 
+/// Options of the CLI that are not options of the functions here (the
+/// functions take the points and return the mesh instead).
+const NOT_OPTIONS: [&str; 10] = [
+    "input",
+    "output",
+    "o",
+    "report",
+    "precision",
+    "sample",
+    "points",
+    "noise",
+    "format",
+    "columns",
+];
+
+/// `options` (keyword arguments) as the command line `vsaqem COMMAND ...`
+/// would give them, parsed by the CLI's own parser: the same defaults, ranges
+/// and messages. `name_value` is `True` for a flag, `None` or `False` to leave
+/// an option out, anything else its value.
+fn parse_command(
+    command: &str,
+    options: Option<&Bound<'_, PyDict>>,
+) -> PyResult<host::cli::Command> {
+    // `cluster` requires an output; the library functions write none (they
+    // return what the command would write), so it is named and never used.
+    let mut argv = vec![
+        "vsaqem".to_string(),
+        command.to_string(),
+        "--quiet".into(),
+        "--output".into(),
+        "-".into(),
+    ];
+    for (key, value) in options.into_iter().flatten() {
+        let key: String = key.extract()?;
+        if NOT_OPTIONS.contains(&key.as_str()) || key == "quiet" {
+            return Err(PyTypeError::new_err(format!(
+                "{command}() got an unexpected keyword argument '{key}' (the mesh is \
+                 returned, not written)"
+            )));
+        }
+        let flag = format!("--{}", key.trim_end_matches('_').replace('_', "-"));
+        if value.is_none() || value.is_instance_of::<PyBool>() && !value.extract::<bool>()? {
+            continue;
+        }
+        argv.push(flag);
+        if !value.is_instance_of::<PyBool>() {
+            argv.push(value.str()?.to_string());
+        }
+    }
+    match host::cli::Cli::try_parse_from(&argv) {
+        Ok(cli) => Ok(cli.command),
+        Err(e) => {
+            let text = e.render().to_string();
+            let first = text.lines().next().unwrap_or_default();
+            Err(Error::new_err(
+                first
+                    .trim_start_matches("error: ")
+                    .replace("--", "")
+                    .to_string(),
+            ))
+        }
+    }
+}
+
+/// The points (and normals, colours) a caller gives, checked as the readers
+/// check a file's: finite, within the largest coordinate, one normal and one
+/// colour per point.
+fn given_cloud(
+    points: &Bound<'_, PyAny>,
+    normals: Option<&Bound<'_, PyAny>>,
+    colors: Option<&Bound<'_, PyAny>>,
+) -> PyResult<host::io::Cloud> {
+    let positions = rows3(points, "points")?;
+    for (i, p) in positions.iter().enumerate() {
+        host::io::check_finite(*p, i as u64, None)
+            .map_err(|e| Error::new_err(format!("points: {e}")))?;
+    }
+    let normals = normals.map(|n| rows3(n, "normals")).transpose()?;
+    if let Some(n) = &normals {
+        if n.len() != positions.len() {
+            return Err(Error::new_err(format!(
+                "normals: {} rows for {} points",
+                n.len(),
+                positions.len()
+            )));
+        }
+    }
+    let colors = colors.map(|c| colors3(c, positions.len())).transpose()?;
+    if positions.is_empty() {
+        return Err(Error::new_err("points: no points"));
+    }
+    Ok(host::io::Cloud {
+        positions,
+        normals,
+        colors,
+        invalid: 0,
+    })
+}
+
+/// An (N, 3) uint8 array of colours, one per point.
+fn colors3(obj: &Bound<'_, PyAny>, n: usize) -> PyResult<Vec<[u8; 3]>> {
+    let a = obj.cast::<PyArray2<u8>>().map_err(|_| {
+        Error::new_err("colors: expected a numpy array of shape (N, 3) and dtype uint8")
+    })?;
+    let a = a.readonly();
+    let v = a.as_array();
+    if v.ncols() != 3 || v.nrows() != n {
+        return Err(Error::new_err(format!(
+            "colors: shape {:?}, expected ({n}, 3)",
+            v.shape()
+        )));
+    }
+    Ok(v.rows().into_iter().map(|r| [r[0], r[1], r[2]]).collect())
+}
+
+/// A reconstructed mesh.
+#[pyclass(frozen, module = "vsaqem")]
+struct Mesh {
+    /// (V, 3) float64 vertices, in the points' coordinates.
+    #[pyo3(get)]
+    vertices: Py<PyArray2<f64>>,
+    /// (F, 3) int32 vertex indices, counter-clockwise seen from outside.
+    #[pyo3(get)]
+    triangles: Py<PyArray2<i32>>,
+    /// (V, 3) uint8 colours (each vertex its cluster's mean), when colours were given.
+    #[pyo3(get)]
+    colors: Option<Py<PyArray2<u8>>>,
+    /// The CLI's JSON report (`vsaqem reconstruct --report`), as a dict.
+    #[pyo3(get)]
+    report: Py<PyAny>,
+}
+
+#[pymethods]
+impl Mesh {
+    fn __repr__(&self, py: Python<'_>) -> String {
+        format!(
+            "Mesh({} vertices, {} triangles)",
+            self.vertices.bind(py).shape()[0],
+            self.triangles.bind(py).shape()[0]
+        )
+    }
+}
+
+/// Reconstruct a closed mesh from points: `vsaqem reconstruct`, in process.
+/// Keyword arguments are the CLI's options with `_` for `-` (e.g.
+/// `clusters=500`, `max_error=0.005`, `min_fragment=0`, `threads=2`,
+/// `memory="100MB"`, `lambda_=0.001`); see `vsaqem reconstruct --help`.
+#[pyfunction]
+#[pyo3(signature = (points, normals=None, colors=None, **options))]
+fn reconstruct(
+    py: Python<'_>,
+    points: &Bound<'_, PyAny>,
+    normals: Option<&Bound<'_, PyAny>>,
+    colors: Option<&Bound<'_, PyAny>>,
+    options: Option<&Bound<'_, PyDict>>,
+) -> PyResult<Mesh> {
+    let host::cli::Command::Reconstruct(mut cmd) = parse_command("reconstruct", options)? else {
+        return Err(Error::new_err("not a reconstruct command"));
+    };
+    cmd.input.given = Some(host::args::Given::new(given_cloud(
+        points, normals, colors,
+    )?));
+    let made = py
+        .detach(|| host::cmd::reconstruct::reconstruct(&cmd))
+        .map_err(Error::new_err)?;
+    warn(py, &made.warnings)?;
+    let triangles: Vec<i32> = made
+        .triangles
+        .iter()
+        .flatten()
+        .map(|&i| i32::try_from(i).map_err(|_| Error::new_err("more than 2^31 vertices")))
+        .collect::<PyResult<_>>()?;
+    let colors = match &made.colors {
+        Some(c) => {
+            let flat: Vec<u8> = c.iter().flatten().copied().collect();
+            Some(PyArray1::from_vec(py, flat).reshape([c.len(), 3])?.unbind())
+        }
+        None => None,
+    };
+    Ok(Mesh {
+        vertices: array3(py, &made.vertices)?.unbind(),
+        triangles: PyArray1::from_vec(py, triangles)
+            .reshape([made.triangles.len(), 3])?
+            .unbind(),
+        colors,
+        report: json(py, &made.report_json)?.unbind(),
+    })
+}
+
+/// Points clustered.
+#[pyclass(frozen, module = "vsaqem")]
+struct Clusters {
+    /// (M, 3) float64: the points clustered (after cleaning and merging exact
+    /// duplicates), in the order given.
+    #[pyo3(get)]
+    points: Py<PyArray2<f64>>,
+    /// (M,) int32: the cluster of each point.
+    #[pyo3(get)]
+    labels: Py<PyArray1<i32>>,
+    /// (C, 3) float64: each cluster's generator (its QEM-optimal point).
+    #[pyo3(get)]
+    generators: Py<PyArray2<f64>>,
+    /// The CLI's JSON report (`vsaqem cluster --report`), as a dict.
+    #[pyo3(get)]
+    report: Py<PyAny>,
+}
+
+#[pymethods]
+impl Clusters {
+    fn __repr__(&self, py: Python<'_>) -> String {
+        format!(
+            "Clusters({} points, {} clusters)",
+            self.points.bind(py).shape()[0],
+            self.generators.bind(py).shape()[0]
+        )
+    }
+}
+
+/// Cluster points: `vsaqem cluster`, in process (keyword arguments as for
+/// `reconstruct`, the clustering and cleaning ones).
+#[pyfunction]
+#[pyo3(signature = (points, normals=None, **options))]
+fn cluster(
+    py: Python<'_>,
+    points: &Bound<'_, PyAny>,
+    normals: Option<&Bound<'_, PyAny>>,
+    options: Option<&Bound<'_, PyDict>>,
+) -> PyResult<Clusters> {
+    let host::cli::Command::Cluster(mut cmd) = parse_command("cluster", options)? else {
+        return Err(Error::new_err("not a cluster command"));
+    };
+    cmd.input.given = Some(host::args::Given::new(given_cloud(points, normals, None)?));
+    let made = py
+        .detach(|| host::cmd::cluster::cluster(&cmd))
+        .map_err(Error::new_err)?;
+    warn(py, &made.warnings)?;
+    let labels: Vec<i32> = made.labels.iter().map(|&l| l as i32).collect();
+    Ok(Clusters {
+        points: array3(py, &made.points)?.unbind(),
+        labels: PyArray1::from_vec(py, labels).unbind(),
+        generators: array3(py, &made.generators)?.unbind(),
+        report: json(py, &made.report_json)?.unbind(),
+    })
+}
+
+/// Each of `warnings` as a Python `UserWarning`.
+fn warn(py: Python<'_>, warnings: &[String]) -> PyResult<()> {
+    for warning in warnings {
+        let text = std::ffi::CString::new(warning.as_str()).unwrap_or_default();
+        PyErr::warn(py, &py.get_type::<PyUserWarning>(), &text, 1)?;
+    }
+    Ok(())
+}
+
 #[pymodule]
 fn _vsaqem(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<Clusters>()?;
+    m.add_function(wrap_pyfunction!(cluster, m)?)?;
+    m.add_class::<Mesh>()?;
+    m.add_function(wrap_pyfunction!(reconstruct, m)?)?;
     m.add("Error", m.py().get_type::<Error>())?;
     m.add_class::<Cloud>()?;
     m.add_function(wrap_pyfunction!(read, m)?)?;

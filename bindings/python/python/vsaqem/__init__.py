@@ -11,6 +11,6 @@ Every function raises vsaqem.Error (a ValueError) with the CLI's message on bad
 input, and releases the GIL while it works.
 """
 
-from ._vsaqem import Cloud, Error, evaluate, read
+from ._vsaqem import Cloud, Clusters, Error, Mesh, cluster, evaluate, read, reconstruct
 
-__all__ = ["Cloud", "Error", "evaluate", "read"]
+__all__ = ["Cloud", "Clusters", "Error", "Mesh", "cluster", "evaluate", "read", "reconstruct"]
