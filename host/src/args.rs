@@ -3,7 +3,7 @@
 
 use crate::input::{self, Prepared};
 use crate::io::xyz::Columns;
-use crate::io::{is_cloud_extension, ReadOptions, CLOUD_EXTENSIONS};
+use crate::io::{is_cloud_extension, Cloud, ReadOptions, CLOUD_EXTENSIONS};
 use crate::limits::{at_most, MemoryLimit, MAX_SAMPLE_POINTS};
 use crate::progress::StageClock;
 use clap::{Args, ValueEnum};
@@ -22,6 +22,10 @@ pub struct InputArgs {
     /// its first bytes). At most 4 GiB; a stream whose first bytes cannot open
     /// its format fails on them. Without it, a built-in generated sample is used.
     pub input: Option<PathBuf>,
+    /// Points a library caller gives in memory (the Python module), read
+    /// instead of INPUT or a sample: not an option of the command line.
+    #[arg(skip)]
+    pub given: Option<Given>,
     /// The input's format, as one of INPUT's extensions (e.g. ply, xyz, las),
     /// over the file's extension; for - (standard input) over what its first
     /// bytes say (a header of PLY, PCD, LAS/LAZ, E57, OFF, OBJ or STL, else
@@ -105,8 +109,49 @@ fn parse_shape(s: &str) -> Result<Shape, String> {
     })
 }
 
+/// A cloud a library caller gives ([`InputArgs::given`]), taken by the one
+/// run that reads it.
+#[derive(Debug, Default)]
+pub struct Given {
+    cloud: std::sync::Mutex<Option<Cloud>>,
+    points: usize,
+}
+
+impl Given {
+    /// `cloud` as a command's input.
+    pub fn new(cloud: Cloud) -> Given {
+        Given {
+            points: cloud.positions.len(),
+            cloud: std::sync::Mutex::new(Some(cloud)),
+        }
+    }
+
+    /// Points given.
+    pub fn points(&self) -> usize {
+        self.points
+    }
+}
+
+impl Clone for Given {
+    fn clone(&self) -> Given {
+        let cloud = self.cloud.lock().map(|c| c.clone()).unwrap_or_default();
+        Given {
+            cloud: std::sync::Mutex::new(cloud),
+            points: self.points,
+        }
+    }
+}
+
 /// Read (or sample) and normalise, timing it.
 pub fn read_input(args: &InputArgs, clock: &mut StageClock) -> Result<Prepared, String> {
+    if let Some(given) = &args.given {
+        let cloud = given.cloud.lock().ok().and_then(|mut c| c.take());
+        let mut cloud = cloud.ok_or("the points given were read by an earlier run")?;
+        if args.normals == NormalsMode::Ignore {
+            cloud.normals = None;
+        }
+        return clock.time("read", || input::prepare(input::GIVEN.to_string(), cloud));
+    }
     clock.time("read", || {
         let (name, mut cloud) = input::load(
             args.input.as_deref(),

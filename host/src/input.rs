@@ -103,6 +103,9 @@ pub fn load(
     }
 }
 
+/// The name errors and reports give points a library caller gave.
+pub const GIVEN: &str = "points";
+
 /// The seed of the built-in samples' points and noise.
 pub const SAMPLE_SEED: u64 = 1;
 
@@ -116,6 +119,11 @@ pub enum Source {
     File {
         /// The path as given.
         path: String,
+    },
+    /// Points a library caller gave in memory (the Python module's array).
+    Array {
+        /// Points given.
+        points: usize,
     },
     /// A built-in generated sample ([`sample`]).
     Sample {
@@ -152,6 +160,7 @@ impl fmt::Display for Source {
         match self {
             Source::File { path } if path == crate::io::STDIO => f.write_str("standard input"),
             Source::File { path } => f.write_str(path),
+            Source::Array { .. } => f.write_str(GIVEN),
             Source::Sample {
                 name,
                 points,

@@ -84,6 +84,11 @@ pub fn report_json(report: &impl Serialize) -> Result<String, String> {
 
 /// Where the points of a run with `args` come from.
 pub fn source(args: &InputArgs) -> Source {
+    if let Some(given) = &args.given {
+        return Source::Array {
+            points: given.points(),
+        };
+    }
     Source::of(
         args.input.as_deref(),
         args.sample,

@@ -2,7 +2,6 @@
 
 use crate::args::{CleanArgs, ClusterArgs, InputArgs, MemoryArgs};
 use crate::clean::{read_and_clean, Cleaned, RunBytes};
-use crate::input::Prepared;
 use crate::io::{write_points_ply, write_to};
 use crate::outputs::check_outputs;
 use crate::progress::StageClock;
@@ -14,7 +13,7 @@ use crate::stdout;
 use clap::Args;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
-use vsaqem_core::Clustered;
+use vsaqem_core::Params;
 
 /// `vsaqem cluster`.
 #[derive(Args, Debug)]
@@ -43,14 +42,28 @@ pub struct Cmd {
     pub quiet: bool,
 }
 
-/// Run the command.
-pub fn run(cmd: &Cmd) -> Result<(), String> {
-    check_outputs(
-        cmd.input.input.as_deref(),
-        &cmd.output,
-        cmd.report.as_deref(),
-    )?;
-    let mut clock = StageClock::new(!cmd.quiet).with_threads(cmd.memory.threads());
+/// The clusters of a command's input, before anything is written: what
+/// [`run`] writes and [`cluster`] hands to a library caller.
+struct Made {
+    /// The input's name, for messages.
+    name: String,
+    params: Params,
+    /// The points clustered (after cleaning and merging duplicates), in the
+    /// order they were read, in file coordinates.
+    points: Vec<[f64; 3]>,
+    /// The cluster of each point.
+    labels: Vec<u32>,
+    /// The generators, in file coordinates.
+    generators: Vec<[f64; 3]>,
+    /// The report but for its `run` part.
+    report: ClusterReport,
+    peaks: StagePeaks,
+    arena_reserved: usize,
+    arena_needed: usize,
+}
+
+/// Read and clean `cmd`'s input and cluster it.
+fn make(cmd: &Cmd, clock: &mut StageClock) -> Result<Made, String> {
     let params = cmd.clean.apply(cmd.cluster.params());
     let bytes = RunBytes {
         most: vsaqem_core::cluster_bytes,
@@ -62,7 +75,7 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
         stats,
         mut buf,
         rows,
-    } = read_and_clean(&cmd.input, &cmd.memory, &params, bytes, &mut clock)?;
+    } = read_and_clean(&cmd.input, &cmd.memory, &params, bytes, clock)?;
     let arena_reserved = buf.len();
     let searched = rows.is_none();
     let arena = vsaqem_core::Arena::new(&mut buf);
@@ -72,13 +85,18 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
             rows.as_ref().map(|r| r.rows()).as_ref(),
             &arena,
             &params,
-            &mut clock,
+            clock,
         )
         .map_err(|e| match e {
             vsaqem_core::Error::ArenaTooSmall { .. } => format!("{}: {e} (--memory)", input.name),
             e => format!("{}: {e}", input.name),
         })?;
-    clock.time("write", || write_clusters(&cmd.output, &input, &out))?;
+    // The points in the order they were read (core saw them in spatial
+    // order, see `Prepared::in_spatial_order`).
+    let mut at: Vec<usize> = (0..input.original.len()).collect();
+    if let Some(order) = &input.order {
+        at.sort_unstable_by_key(|&i| order[i]);
+    }
     let diag = out.bounds.diag;
     let report = ClusterReport {
         header: Header::new("cluster"),
@@ -98,50 +116,121 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
         spacing_relative: out.stats.spacing as f64 / diag as f64,
         components: out.stats.cluster.components,
         clustering: ClusteringReport::new(&out.stats.cluster, &params, input.points.len()),
-        run: RunReport::new(
-            &clock,
-            StagePeaks {
-                cleaning: stats.map(|s| s.peak),
-                neighbours: out.stats.peak_neighbours,
-                quadrics: out.stats.peak_quadrics,
-                clustering: out.stats.peak_clustering,
-                meshing: None,
-            },
-            arena_reserved,
-            bytes.needed(
-                &input,
-                points_read,
-                &params,
-                out.stats.reverse_edges as usize,
-                searched,
-            ),
-            &cmd.output,
-        ),
+        run: None,
     };
-    let c = &report.clustering;
-    if let Some((why, true)) = c.tolerance_unmet(params.split_rounds) {
-        stdout::warn(format_args!(
-            "warning: {}: {why}; largest error {:.3}% of the diagonal",
-            input.name,
-            c.max_error_relative * 100.0
-        ));
-    }
-    publish(&report.text(), &cmd.output, cmd.report.as_deref(), || {
-        report_json(&report)
+    Ok(Made {
+        name: input.name.clone(),
+        params,
+        points: at.iter().map(|&i| input.original[i]).collect(),
+        labels: at.iter().map(|&i| out.clusters.labels[i]).collect(),
+        generators: out
+            .clusters
+            .generators
+            .iter()
+            .map(|&g| input.frame.to_file(g))
+            .collect(),
+        report,
+        peaks: StagePeaks {
+            cleaning: stats.map(|s| s.peak),
+            neighbours: out.stats.peak_neighbours,
+            quadrics: out.stats.peak_quadrics,
+            clustering: out.stats.peak_clustering,
+            meshing: None,
+        },
+        arena_reserved,
+        arena_needed: bytes.needed(
+            &input,
+            points_read,
+            &params,
+            out.stats.reverse_edges as usize,
+            searched,
+        ),
     })
 }
 
-fn write_clusters(path: &Path, input: &Prepared, out: &Clustered) -> Result<(), String> {
-    let gens = out.clusters.generators;
-    // The points go out in the order they were read (core saw them in spatial
-    // order, see `Prepared::in_spatial_order`).
-    let mut at: Vec<usize> = (0..input.original.len()).collect();
-    if let Some(order) = &input.order {
-        at.sort_unstable_by_key(|&i| order[i]);
+impl Made {
+    /// The report, its `run` part read off `clock` now, for `output`.
+    fn report(&mut self, clock: &StageClock, output: &Path) -> &ClusterReport {
+        self.report.run = Some(RunReport::new(
+            clock,
+            self.peaks,
+            self.arena_reserved,
+            self.arena_needed,
+            output,
+        ));
+        &self.report
     }
-    let mut pts: Vec<[f64; 3]> = at.iter().map(|&i| input.original[i]).collect();
-    pts.extend(gens.iter().map(|&g| input.frame.to_file(g)));
-    let mut ids: Vec<u32> = at.iter().map(|&i| out.clusters.labels[i]).collect();
+
+    /// What the run warns about (without `warning: `).
+    fn warnings(&self) -> Vec<String> {
+        let c = &self.report.clustering;
+        match c.tolerance_unmet(self.params.split_rounds) {
+            Some((why, true)) => vec![format!(
+                "{}: {why}; largest error {:.3}% of the diagonal",
+                self.name,
+                c.max_error_relative * 100.0
+            )],
+            _ => Vec::new(),
+        }
+    }
+}
+
+/// Run the command.
+pub fn run(cmd: &Cmd) -> Result<(), String> {
+    check_outputs(
+        cmd.input.input.as_deref(),
+        &cmd.output,
+        cmd.report.as_deref(),
+    )?;
+    let mut clock = StageClock::new(!cmd.quiet).with_threads(cmd.memory.threads());
+    let mut made = make(cmd, &mut clock)?;
+    clock.time("write", || write_clusters(&cmd.output, &made))?;
+    for warning in made.warnings() {
+        stdout::warn(format_args!("warning: {warning}"));
+    }
+    let report = made.report(&clock, &cmd.output);
+    publish(&report.text(), &cmd.output, cmd.report.as_deref(), || {
+        report_json(report)
+    })
+}
+
+/// Clusters made for a library caller (the Python module).
+pub struct Clusters {
+    /// The points clustered (after cleaning and merging duplicates), in the
+    /// order given.
+    pub points: Vec<[f64; 3]>,
+    /// The cluster of each point.
+    pub labels: Vec<u32>,
+    /// The generators, in the points' coordinates.
+    pub generators: Vec<[f64; 3]>,
+    /// The report as `--report` writes it.
+    pub report_json: String,
+    /// What the CLI would print as warnings, without `warning: `.
+    pub warnings: Vec<String>,
+}
+
+/// What [`run`] makes of `cmd`, handed back instead of written.
+pub fn cluster(cmd: &Cmd) -> Result<Clusters, String> {
+    let mut clock = StageClock::new(false).with_threads(cmd.memory.threads());
+    let mut made = make(cmd, &mut clock)?;
+    let warnings = made.warnings();
+    let report_json = report_json(made.report(&clock, Path::new("")))?;
+    Ok(Clusters {
+        points: made.points,
+        labels: made.labels,
+        generators: made.generators,
+        report_json,
+        warnings,
+    })
+}
+
+/// The clustered points coloured by cluster, then the generators in black,
+/// each with its cluster's id.
+fn write_clusters(path: &Path, made: &Made) -> Result<(), String> {
+    let gens = &made.generators;
+    let mut pts = made.points.clone();
+    pts.extend(gens);
+    let mut ids = made.labels.clone();
     let mut colours: Vec<[u8; 3]> = ids.iter().map(|&l| label_colour(l)).collect();
     colours.extend(std::iter::repeat_n([0, 0, 0], gens.len()));
     ids.extend(0..gens.len() as u32);
@@ -188,8 +277,9 @@ struct ClusterReport {
     components: u32,
     #[serde(flatten)]
     clustering: ClusteringReport,
+    /// Filled once the run is over.
     #[serde(flatten)]
-    run: RunReport,
+    run: Option<RunReport>,
 }
 
 impl ClusterReport {
@@ -218,7 +308,10 @@ impl ClusterReport {
             c.max_error_relative * 100.0,
             c.tolerance_used_relative * 100.0,
             c.unmet_note(self.params.clustering.split_rounds),
-            self.run.text(self.input.points, &output),
+            self.run
+                .as_ref()
+                .map(|r| r.text(self.input.points, &output))
+                .unwrap_or_default(),
         )
     }
 }

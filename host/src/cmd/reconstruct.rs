@@ -150,26 +150,41 @@ impl Cmd {
     }
 }
 
-/// Run the command.
-pub fn run(cmd: &Cmd) -> Result<(), String> {
+/// A mesh made from a command's input, before anything is written: what
+/// [`run`] writes and [`reconstruct`] hands to a library caller.
+struct Made {
+    /// The input's name, for messages.
+    name: String,
+    params: Params,
+    /// Vertices in file coordinates, in `f64`.
+    vertices: Vec<[f64; 3]>,
+    triangles: Vec<[u32; 3]>,
+    /// Each vertex's colour (its cluster's mean), when the input has colours.
+    colors: Option<Vec<[u8; 3]>>,
+    /// Bounding-box diagonal of the points core worked on, in file units.
+    diagonal: f64,
+    /// Points core worked on.
+    points: usize,
+    input: InputReport,
+    params_report: ParamsReport,
+    clustering: ClusteringReport,
+    meshing: MeshingReport,
+    meshing_stats: MeshingStats,
+    peaks: StagePeaks,
+    arena_reserved: usize,
+    arena_needed: usize,
+}
+
+/// Read and clean `cmd`'s input and reconstruct it.
+fn make(cmd: &Cmd, clock: &mut StageClock) -> Result<Made, String> {
     at_most(
         "--mesh-bytes-per-cluster",
         cmd.mesh.mesh_bytes_per_cluster.into(),
         MAX_MESH_BYTES_PER_CLUSTER.into(),
         "bytes per cluster",
     )?;
-    let format = MeshFormat::from_path(&cmd.output)?;
-    format
-        .coords(cmd.precision, false)
-        .map_err(|e| format!("{}: {e}", cmd.output.display()))?;
-    check_outputs(
-        cmd.input.input.as_deref(),
-        &cmd.output,
-        cmd.report.as_deref(),
-    )?;
     let params = cmd.params();
     params.meshable().map_err(unmeshable)?;
-    let mut clock = StageClock::new(!cmd.quiet).with_threads(cmd.memory.threads());
     let bytes = RunBytes {
         most: vsaqem_core::arena_bytes,
         least: vsaqem_core::reconstruct_bytes_for,
@@ -180,7 +195,7 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
         stats,
         mut buf,
         rows,
-    } = read_and_clean(&cmd.input, &cmd.memory, &params, bytes, &mut clock)?;
+    } = read_and_clean(&cmd.input, &cmd.memory, &params, bytes, clock)?;
     // The mesh needs only the points in core coordinates and the frame: the
     // positions as read (24 bytes a point) and the input order go before the
     // run, so they are not resident beside the arena.
@@ -194,7 +209,7 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
         rows.as_ref().map(|r| r.rows()).as_ref(),
         &arena,
         &params,
-        &mut clock,
+        clock,
     );
     let out = out.map_err(|e| match e {
         Error::MeshCapacity { .. } => format!(
@@ -211,9 +226,8 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
         }
         e => format!("{}: {e}", input.name),
     })?;
-    let diag = out.clustered.bounds.diag;
-    let diagonal = diag as f64 * input.frame.scale;
-    // The vertices in file coordinates, in f64; how the file holds them
+    let diagonal = out.clustered.bounds.diag as f64 * input.frame.scale;
+    // The vertices in file coordinates, in f64; how a file holds them
     // depends on how far from the origin they lie.
     let vertices: Vec<[f64; 3]> = out
         .mesh
@@ -221,55 +235,19 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
         .iter()
         .map(|&v| input.frame.to_file(v))
         .collect();
-    let triangles = out.mesh.triangles;
-    let allowed = AUTO_F32_SHARE * tolerance(&params) * diagonal;
-    let layout = MeshLayout::choose(format, cmd.precision, &vertices, allowed)
-        .map_err(|e| format!("{}: {e}", cmd.output.display()))?;
-    let normals = format
-        .has_vertex_normals()
-        .then(|| vertex_normals(&vertices, triangles));
     let colors = input
         .colors
         .as_ref()
-        .filter(|_| format.has_colors())
         .map(|c| vertex_colors(out.clustered.clusters.labels, c, out.mesh.vertex_cluster));
-    let file = FileReport::new(
-        &layout,
-        cmd.precision,
-        &vertices,
-        allowed,
-        normals.is_some(),
-        colors.is_some(),
-    );
-    // The check is of the mesh as the file holds it, not of a more precise one.
-    let stored: Vec<[f64; 3]> = vertices.iter().map(|&p| layout.stored(p)).collect();
-    let check = clock.time("check", || MeshCheck::new(&stored, triangles));
-    drop(stored);
-    if let Some(why) = empty(&check, &out.meshing) {
-        if !cmd.allow_empty {
-            return Err(format!(
-                "{}: {why}; nothing written ({}; --allow-empty writes it anyway)",
-                input.name,
-                empty_advice(input.points.len(), &params)
-            ));
-        }
-        eprintln!(
-            "warning: {}: {why}; written as asked (--allow-empty)",
-            input.name
-        );
-    }
-    let mesh = MeshOut {
-        vertices: &vertices,
-        triangles,
-        normals: normals.as_deref(),
-        colors: colors.as_deref(),
-    };
-    clock.time("write", || {
-        write_to(&cmd.output, |w| write_mesh(w, &layout, &mesh))
-    })?;
     let cs = &out.clustered.stats;
-    let report = ReconstructReport {
-        header: Header::new("reconstruct"),
+    Ok(Made {
+        name: input.name.clone(),
+        params,
+        vertices,
+        triangles: out.mesh.triangles.to_vec(),
+        colors,
+        diagonal,
+        points: input.points.len(),
         input: InputReport::new(
             source(&cmd.input),
             points_read,
@@ -281,63 +259,135 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
             &params,
             diagonal,
         ),
-        params: ParamsReport::new(&params, true, RunParams::of(&cmd.memory)),
+        params_report: ParamsReport::new(&params, true, RunParams::of(&cmd.memory)),
         clustering: ClusteringReport::new(&cs.cluster, &params, input.points.len()),
         meshing: MeshingReport::new(&out.meshing, params.max_error),
-        run: RunReport::new(
-            &clock,
-            StagePeaks {
-                cleaning: stats.map(|s| s.peak),
-                neighbours: cs.peak_neighbours,
-                quadrics: cs.peak_quadrics,
-                clustering: cs.peak_clustering,
-                meshing: Some(out.meshing.peak),
-            },
-            arena_reserved,
-            bytes.needed(
-                &input,
-                points_read,
-                &params,
-                cs.reverse_edges as usize,
-                searched,
-            ),
-            &cmd.output,
+        meshing_stats: out.meshing,
+        peaks: StagePeaks {
+            cleaning: stats.map(|s| s.peak),
+            neighbours: cs.peak_neighbours,
+            quadrics: cs.peak_quadrics,
+            clustering: cs.peak_clustering,
+            meshing: Some(out.meshing.peak),
+        },
+        arena_reserved,
+        arena_needed: bytes.needed(
+            &input,
+            points_read,
+            &params,
+            cs.reverse_edges as usize,
+            searched,
         ),
-        mesh: check,
-        file,
+    })
+}
+
+impl Made {
+    /// An error when the mesh checked in `check` has no face with area and
+    /// `allow_empty` is off; a warning when it is on.
+    fn refuse_empty(&self, check: &MeshCheck, allow_empty: bool) -> Result<(), String> {
+        if let Some(why) = empty(check, &self.meshing_stats) {
+            if !allow_empty {
+                return Err(format!(
+                    "{}: {why}; nothing written ({}; --allow-empty writes it anyway)",
+                    self.name,
+                    empty_advice(self.points, &self.params)
+                ));
+            }
+            stdout::warn(format_args!(
+                "warning: {}: {why}; written as asked (--allow-empty)",
+                self.name
+            ));
+        }
+        Ok(())
+    }
+
+    /// The run's report, the clock read now; `file` is what was written
+    /// (`None`: nothing, the mesh went to a library caller), `output` where.
+    fn report(
+        self,
+        clock: &StageClock,
+        check: MeshCheck,
+        file: Option<FileReport>,
+        output: &std::path::Path,
+    ) -> ReconstructReport {
+        ReconstructReport {
+            header: Header::new("reconstruct"),
+            input: self.input,
+            params: self.params_report,
+            clustering: self.clustering,
+            meshing: self.meshing,
+            run: RunReport::new(
+                clock,
+                self.peaks,
+                self.arena_reserved,
+                self.arena_needed,
+                output,
+            ),
+            mesh: check,
+            file,
+        }
+    }
+}
+
+/// Run the command.
+pub fn run(cmd: &Cmd) -> Result<(), String> {
+    let format = MeshFormat::from_path(&cmd.output)?;
+    format
+        .coords(cmd.precision, false)
+        .map_err(|e| format!("{}: {e}", cmd.output.display()))?;
+    check_outputs(
+        cmd.input.input.as_deref(),
+        &cmd.output,
+        cmd.report.as_deref(),
+    )?;
+    let mut clock = StageClock::new(!cmd.quiet).with_threads(cmd.memory.threads());
+    let made = make(cmd, &mut clock)?;
+    let vertices = &made.vertices;
+    let triangles = &made.triangles[..];
+    let allowed = AUTO_F32_SHARE * tolerance(&made.params) * made.diagonal;
+    let layout = MeshLayout::choose(format, cmd.precision, vertices, allowed)
+        .map_err(|e| format!("{}: {e}", cmd.output.display()))?;
+    let normals = format
+        .has_vertex_normals()
+        .then(|| vertex_normals(vertices, triangles));
+    let colors = made.colors.as_deref().filter(|_| format.has_colors());
+    let file = FileReport::new(
+        &layout,
+        cmd.precision,
+        vertices,
+        allowed,
+        normals.is_some(),
+        colors.is_some(),
+    );
+    // The check is of the mesh as the file holds it, not of a more precise one.
+    let stored: Vec<[f64; 3]> = vertices.iter().map(|&p| layout.stored(p)).collect();
+    let check = clock.time("check", || MeshCheck::new(&stored, triangles));
+    drop(stored);
+    made.refuse_empty(&check, cmd.allow_empty)?;
+    let mesh = MeshOut {
+        vertices,
+        triangles,
+        normals: normals.as_deref(),
+        colors,
     };
-    let (c, m) = (&report.clustering, &report.meshing);
-    if let Some((why, true)) = c.tolerance_unmet(params.split_rounds) {
-        stdout::warn(format_args!(
-            "warning: {}: {why}; largest error {:.3}% of the diagonal",
-            input.name,
-            c.max_error_relative * 100.0
-        ));
+    clock.time("write", || {
+        write_to(&cmd.output, |w| write_mesh(w, &layout, &mesh))
+    })?;
+    let (name, max_error) = (made.name.clone(), made.params.max_error);
+    let report = made.report(&clock, check, Some(file), &cmd.output);
+    for warning in report.warnings(&name, max_error) {
+        stdout::warn(format_args!("warning: {warning}"));
     }
-    if let Some(over) = m.max_error_missed() {
-        stdout::warn(format_args!(
-            "warning: {}: --max-error {} not met: the farthest point is {:.3}% of the \
-             diagonal from the mesh ({:.3}% over) after {} refinement rounds with {} \
-             clusters: {}",
-            input.name,
-            params.max_error,
-            m.distance_max_relative * 100.0,
-            over * 100.0,
-            m.refine_rounds,
-            c.clusters,
-            report.max_error_stop(),
-        ));
-    }
-    if report.file.coarser_than_auto() {
+    if let Some(file) = report.file.as_ref().filter(|f| f.coarser_than_auto()) {
         stdout::warn(format_args!(
             "warning: {}: {} holds float32 coordinates, which moved vertices by up to {:.3e} \
              (float32 steps {:.3e} at the largest coordinate, over the {:.3e} that \
              --precision auto allows); {}",
             cmd.output.display(),
             format.name().to_ascii_uppercase(),
-            report.file.rounding_max,
-            report.file.f32_step,
-            report.file.f32_step_allowed,
+            file.rounding_max,
+            file.f32_step,
+            file.f32_step_allowed,
             if format == MeshFormat::Stl {
                 "write .ply, .obj or .glb to keep them"
             } else {
@@ -347,6 +397,51 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
     }
     publish(&report.text(), &cmd.output, cmd.report.as_deref(), || {
         report_json(&report)
+    })
+}
+
+/// A mesh reconstructed for a library caller (the Python module): nothing
+/// read from or written to a file unless the command's input names one.
+pub struct Reconstructed {
+    /// Vertices in the input's coordinates.
+    pub vertices: Vec<[f64; 3]>,
+    /// Triangles, counter-clockwise seen from outside.
+    pub triangles: Vec<[u32; 3]>,
+    /// Each vertex's colour (its cluster's mean), when the input has colours.
+    pub colors: Option<Vec<[u8; 3]>>,
+    /// The report as `--report` writes it (without its `file` part).
+    pub report_json: String,
+    /// What the CLI would print as warnings, without `warning: `.
+    pub warnings: Vec<String>,
+}
+
+/// What [`run`] makes of `cmd`, handed back instead of written: the same mesh
+/// (in `f64`) and report, and the same errors but for the output's.
+pub fn reconstruct(cmd: &Cmd) -> Result<Reconstructed, String> {
+    let mut clock = StageClock::new(false).with_threads(cmd.memory.threads());
+    let made = make(cmd, &mut clock)?;
+    let check = clock.time("check", || MeshCheck::new(&made.vertices, &made.triangles));
+    if let Some(why) = empty(&check, &made.meshing_stats) {
+        if !cmd.allow_empty {
+            return Err(format!(
+                "{}: {why} ({}; allow_empty returns it anyway)",
+                made.name,
+                empty_advice(made.points, &made.params)
+            ));
+        }
+    }
+    let mut made = made;
+    let vertices = std::mem::take(&mut made.vertices);
+    let triangles = std::mem::take(&mut made.triangles);
+    let colors = made.colors.take();
+    let (name, max_error) = (made.name.clone(), made.params.max_error);
+    let report = made.report(&clock, check, None, std::path::Path::new(""));
+    Ok(Reconstructed {
+        vertices,
+        triangles,
+        colors,
+        warnings: report.warnings(&name, max_error),
+        report_json: report_json(&report)?,
     })
 }
 
@@ -442,8 +537,10 @@ struct ReconstructReport {
     run: RunReport,
     /// The checks of the mesh written.
     mesh: MeshCheck,
-    /// The file written: format, coordinates, normals and colours.
-    file: FileReport,
+    /// The file written: format, coordinates, normals and colours (absent
+    /// when the mesh went to a library caller).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    file: Option<FileReport>,
 }
 
 /// What meshing gave (core's [`MeshingStats`], under the report's names):
@@ -564,6 +661,33 @@ impl MeshingReport {
 }
 
 impl ReconstructReport {
+    /// What the run warns about on `name`'s points with `--max-error`
+    /// `max_error`: a tolerance the cluster cap left unmet, an error bound not
+    /// met.
+    fn warnings(&self, name: &str, max_error: f32) -> Vec<String> {
+        let (c, m) = (&self.clustering, &self.meshing);
+        let mut out = Vec::new();
+        if let Some((why, true)) = c.tolerance_unmet(self.params.clustering.split_rounds) {
+            out.push(format!(
+                "{name}: {why}; largest error {:.3}% of the diagonal",
+                c.max_error_relative * 100.0
+            ));
+        }
+        if let Some(over) = m.max_error_missed() {
+            out.push(format!(
+                "{name}: --max-error {max_error} not met: the farthest point is {:.3}% of the \
+                 diagonal from the mesh ({:.3}% over) after {} refinement rounds with {} \
+                 clusters: {}",
+                m.distance_max_relative * 100.0,
+                over * 100.0,
+                m.refine_rounds,
+                c.clusters,
+                self.max_error_stop(),
+            ));
+        }
+        out
+    }
+
     /// Why refinement stopped short of `--max-error`.
     fn max_error_stop(&self) -> &'static str {
         if self.clustering.clusters >= self.clustering.cluster_cap {
@@ -694,7 +818,7 @@ impl ReconstructReport {
             m.split_vertices,
             m.tangled_pairs,
             self.mesh.text(),
-            self.file.text(),
+            self.file.as_ref().map(FileReport::text).unwrap_or_default(),
             self.run.text(self.input.points, ""),
         )
     }

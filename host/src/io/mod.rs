@@ -470,11 +470,7 @@ pub const MAX_COORDINATE: f64 = 1e40;
 
 /// Checks that a position is finite and within [`MAX_COORDINATE`]; `vertex`
 /// and `line` locate it for the message.
-pub(crate) fn check_finite(
-    p: [f64; 3],
-    vertex: u64,
-    line: Option<usize>,
-) -> Result<(), ReadErrorKind> {
+pub fn check_finite(p: [f64; 3], vertex: u64, line: Option<usize>) -> Result<(), ReadErrorKind> {
     for (value, coord) in p.into_iter().zip(["x", "y", "z"]) {
         if !value.is_finite() {
             return Err(ReadErrorKind::NonFinite {
