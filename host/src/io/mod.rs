@@ -4,7 +4,7 @@
 //!
 //! Every reader loads the whole file (inputs are tens of MB, at most
 //! [`crate::limits::MAX_INPUT_BYTES`]; a stream that cannot open a file of its
-//! format fails on its first bytes, see [`bounded`]) and parses the byte slice in
+//! format fails on its first bytes, see the `bounded` module) and parses the byte slice in
 //! one pass: O(file size) time, memory proportional to the output. Readers are
 //! written for hostile input:
 //! - any malformed file is a [`ReadError`] naming the path, the place (1-based line for

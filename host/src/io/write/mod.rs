@@ -86,7 +86,7 @@ pub(crate) fn create_scratch(dir: &Path, kind: &str) -> io::Result<(PathBuf, Fil
 }
 
 /// Writes `path` atomically: `f` writes into a buffered hidden temporary file in the
-/// same directory ([`create_scratch`]), which is flushed, `sync_all`ed and renamed over
+/// same directory (made by `create_scratch`, with a short name of its own), which is flushed, `sync_all`ed and renamed over
 /// `path`. On any error (or panic in `f`) the temporary file is removed and an existing
 /// `path` is left untouched. A `path` that exists and is not a regular file or a
 /// directory (a device, a pipe, a socket) is opened and written directly, without the
