@@ -2,7 +2,8 @@
 # Runs every fuzz target for SECONDS (default 60) each, one after the other
 # (one core at a time: no -jobs/-workers), from fuzz/corpus/<target> (kept,
 # gitignored) and the seeds of seed.sh, then prints each target's runs,
-# coverage (cov: edges) and features (ft:) from libFuzzer's final line.
+# coverage (cov: edges) and features (ft:) from libFuzzer's final line; the
+# whole output of each is in fuzz/logs/<target>.log.
 # Exits 1 when a target crashed, timed out (-timeout, seconds an input may
 # take) or ran out of memory; the input is then in fuzz/artifacts/<target>/.
 #
@@ -37,8 +38,9 @@ bash seed.sh
 failed=()
 summary=()
 for t in "${targets[@]}"; do
-  mkdir -p "corpus/$t" "artifacts/$t"
-  log="artifacts/$t/last-run.log"
+  mkdir -p "corpus/$t" "artifacts/$t" logs
+  # Not in artifacts/: cargo fuzz names the newest file there as the failing input.
+  log="logs/$t.log"
   start=$SECONDS
   status=0
   "${fuzz[@]}" run "$t" "corpus/$t" "seeds/$t" -- \
