@@ -674,4 +674,40 @@ mod tests {
         assert_eq!(a.try_alloc_slice::<u32>(0, 0).unwrap().len(), 0);
         assert!(a.try_alloc_slice::<u32>(1, 0).is_err());
     }
+
+    #[test]
+    fn atomic_views_read_and_write_the_values_in_place() {
+        use core::sync::atomic::Ordering::Relaxed;
+        let mut b = buf(256);
+        let a = Arena::new(&mut b.0);
+        let bytes = a.try_alloc_slice::<u8>(5, 1).unwrap();
+        atomic_bytes(bytes)[4].store(9, Relaxed);
+        assert_eq!(bytes, [1, 1, 1, 1, 9]);
+        let halves = a.try_alloc_slice::<u16>(3, 2).unwrap();
+        assert_eq!(atomic_u16s(halves)[2].fetch_add(1, Relaxed), 2);
+        assert_eq!(halves, [2, 2, 3]);
+        let words = a.try_alloc_slice::<u32>(4, 7).unwrap();
+        let atomic = atomic_u32s(words);
+        atomic[0].store(u32::MAX, Relaxed);
+        assert_eq!(plain_u32s(atomic), [u32::MAX, 7, 7, 7]);
+    }
+
+    #[cfg(feature = "bumpalo")]
+    #[test]
+    fn an_arena_from_a_bump_holds_values_at_both_ends() {
+        let bump = bumpalo::Bump::new();
+        let a = Arena::try_from_bump(&bump, 256).unwrap();
+        let front = a.try_alloc_copy(&[1u32, 2, 3]).unwrap();
+        a.scratch(|s| {
+            let back = s.try_alloc_slice::<u64>(4, 9).unwrap();
+            back[3] = 10;
+            assert_eq!(back, [9, 9, 9, 10]);
+        });
+        front[1] = 5;
+        assert_eq!(front, [1, 5, 3]);
+        assert!(a.try_alloc_slice::<u64>(64, 0).is_err());
+        let limited = bumpalo::Bump::new();
+        limited.set_allocation_limit(Some(100));
+        assert!(Arena::try_from_bump(&limited, 4096).is_err());
+    }
 }

@@ -244,6 +244,32 @@ fn missing_geometry_gives_nan_not_a_panic() {
     assert_eq!(e.topology.unreferenced_vertices, 8);
 }
 
+#[test]
+fn a_cloud_smaller_than_1e_minus_100_is_measured_not_looped_on() {
+    // Found by the `eval` fuzz target: fifteen points at the origin but one,
+    // 1.3e-321 (subnormal) away, and faces on the origin. The spatial grid's
+    // cell size underflowed to 0 and its coarsening loop never ended.
+    let mut pts = vec![[0.0; 3]; 15];
+    pts[0][0] = f64::from_bits(255);
+    let faces = vec![[0, 0, 0]; 15];
+    let e = evaluate(&pts, &[[0.0; 3]; 15], &faces, 1016);
+    // (Squared, that distance underflows to 0.)
+    assert!(e.point_to_mesh.stats.max <= f64::from_bits(255));
+    assert_eq!((e.points, e.topology.faces), (15, 15));
+    // The unit cube scaled by 1e-120 (the product of its sides underflows):
+    // measured, its topology exact. (Its distances are not: squared areas
+    // underflow too, so faces are measured as their edges and take no
+    // samples; they stay within the cube.)
+    let s = 1e-120;
+    let scale = |p: [f64; 3]| p.map(|c| c * s);
+    let pts: Vec<[f64; 3]> = cube_surface_points(11).into_iter().map(scale).collect();
+    let (v, t) = cube();
+    let v: Vec<[f64; 3]> = v.into_iter().map(scale).collect();
+    let e = evaluate(&pts, &v, &t, 2000);
+    assert!(e.hausdorff.is_finite() && e.hausdorff <= s * 3f64.sqrt());
+    assert!(e.topology.is_closed_manifold());
+}
+
 // ---------------------------------------------------------------------------------
 // The command
 

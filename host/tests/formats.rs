@@ -397,6 +397,42 @@ fn mutations_never_panic(d: &Path, name: &str, seed: &[u8], rounds: usize) {
 }
 
 #[test]
+fn a_laz_of_long_records_that_lies_about_its_count_fails_in_bounded_memory() {
+    // Found by the `las` fuzz target: records of 60,020 bytes (extra bytes) and
+    // a count past the body; a batch of 65,536 such points was a 3.9 GB buffer,
+    // sized before the decoder found that the body ends.
+    let d = dir("laz_long_records");
+    let mut b = las::Builder::from((1, 4));
+    b.point_format = las::point::Format::new(0).unwrap();
+    b.point_format.extra_bytes = 60_000;
+    b.point_format.is_compressed = true;
+    let mut w =
+        las::Writer::new(std::io::Cursor::new(Vec::new()), b.into_header().unwrap()).unwrap();
+    for i in 0..10 {
+        let (x, y, z) = (f64::from(i), 1.0, 2.0);
+        w.write_point(las::Point {
+            x,
+            y,
+            z,
+            extra_bytes: vec![7; 60_000],
+            ..Default::default()
+        })
+        .unwrap();
+    }
+    w.close().unwrap();
+    let mut laz = w.into_inner().unwrap().into_inner();
+    // Legacy point count (byte 107) and the 1.4 count (byte 247).
+    laz[107..111].copy_from_slice(&1_000_000u32.to_le_bytes());
+    laz[247..255].copy_from_slice(&1_000_000u64.to_le_bytes());
+    // cloud_err bounds the time to 2 s (zeroing 3.9 GB took longer, where the
+    // allocation did not fail).
+    cloud_err(
+        &put(&d, "lying.laz", &laz),
+        &["of 1000000", "the header's count is larger than the data"],
+    );
+}
+
+#[test]
 fn mutated_las_laz_and_compressed_pcd_never_panic() {
     let d = dir("mutate");
     let pts: Vec<[f64; 3]> = sphere().into_iter().take(300).collect();

@@ -33,6 +33,12 @@ impl Grid {
         } else {
             1.0
         };
+        if h == 0.0 {
+            // The product above underflows for a box under about 1e-100 across
+            // (at once for a subnormal size), and the coarsening below, which
+            // multiplies `h`, would never end: one cell across the longest side.
+            h = size;
+        }
         while cells(h) > 2.0 * target {
             h *= 1.25;
         }

@@ -9,8 +9,8 @@
 //! counts: the scales and offsets must be finite (a scale of 0 too is an error), the
 //! points (uncompressed) must fit in the bytes after the header, an extended record
 //! and a LAZ chunk table must lie inside the file. Points are then decoded a batch
-//! at a time, so a count that lies about a LAZ body fails where the data ends
-//! without reserving more than a batch; a damaged LAZ stream on which the decoder
+//! (at most 65,536 points and 8 MiB of records) at a time, so a count that lies
+//! about a LAZ body fails where the data ends without reserving more than a batch; a damaged LAZ stream on which the decoder
 //! panics is an error too (`quiet_catch` in `io`). A point with a non-finite
 //! coordinate (only a huge scale can make one) is skipped and counted.
 //!
@@ -22,8 +22,12 @@ use std::io::Cursor;
 
 type Result<T> = core::result::Result<T, ReadErrorKind>;
 
-/// Points decoded at a time.
+/// Points decoded at a time, at most.
 const BATCH: u64 = 1 << 16;
+/// Bytes of point records decoded at a time, at most: a record may be 65,535
+/// bytes long (extra bytes), and the decoder sizes its buffer for a batch
+/// before it finds that a LAZ body ends early.
+const BATCH_BYTES: u64 = 1 << 23;
 
 /// The smallest point record of any format (format 0): a LAZ chunk starts with one
 /// point uncompressed, so a file holds at most its length over this many chunks.
@@ -170,9 +174,11 @@ fn decode(data: Vec<u8>, done: &mut u64) -> Result<Cloud> {
     let has_color = reader.header().point_format().has_color;
     let mut wide: Vec<[u16; 3]> = Vec::with_capacity(if has_color { cap } else { 0 });
     let mut batch = PointDataBuilder::new().for_header(reader.header()).build();
+    let record = u64::from(reader.header().point_format().len()).max(1);
+    let batch_points = BATCH.min(BATCH_BYTES / record).max(1);
     while *done < count {
         let n = reader
-            .fill_points(BATCH.min(count - *done), &mut batch)
+            .fill_points(batch_points.min(count - *done), &mut batch)
             .map_err(|e| {
                 ReadErrorKind::file(format!(
                     "LAS: point {done} of {count}: {e} (the header's count is larger than \

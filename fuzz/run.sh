@@ -1,0 +1,67 @@
+#!/usr/bin/env bash
+# Runs every fuzz target for SECONDS (default 60) each, one after the other
+# (one core at a time: no -jobs/-workers), from fuzz/corpus/<target> (kept,
+# gitignored) and the seeds of seed.sh, then prints each target's runs,
+# coverage (cov: edges) and features (ft:) from libFuzzer's final line; the
+# whole output of each is in fuzz/logs/<target>.log.
+# Exits 1 when a target crashed, timed out (-timeout, seconds an input may
+# take) or ran out of memory; the input is then in fuzz/artifacts/<target>/.
+#
+# Needs only stable Rust: cargo-fuzz is installed when missing, and the
+# sanitizer flags take `cargo +nightly` when a nightly toolchain is installed,
+# else RUSTC_BOOTSTRAP=1 on the default one.
+#   bash fuzz/run.sh 60                # every target, 60 s each
+#   bash fuzz/run.sh 300 reconstruct   # one target
+set -euo pipefail
+cd "$(dirname "$0")"
+seconds=${1:-60}
+shift || true
+targets=("$@")
+if [ ${#targets[@]} -eq 0 ]; then
+  targets=(ply pcd text mesh las e57 args eval reconstruct)
+fi
+
+if ! cargo fuzz --version >/dev/null 2>&1; then
+  cargo install cargo-fuzz --locked
+fi
+if rustup toolchain list 2>/dev/null | grep -q '^nightly'; then
+  fuzz=(cargo +nightly fuzz)
+else
+  export RUSTC_BOOTSTRAP=1
+  fuzz=(cargo fuzz)
+fi
+echo "using: ${fuzz[*]} ($("${fuzz[@]}" --version))"
+
+bash seed.sh
+"${fuzz[@]}" build
+
+failed=()
+summary=()
+for t in "${targets[@]}"; do
+  mkdir -p "corpus/$t" "artifacts/$t" logs
+  # Not in artifacts/: cargo fuzz names the newest file there as the failing input.
+  log="logs/$t.log"
+  start=$SECONDS
+  status=0
+  "${fuzz[@]}" run "$t" "corpus/$t" "seeds/$t" -- \
+    -max_total_time="$seconds" -timeout=20 -print_final_stats=1 >"$log" 2>&1 || status=$?
+  took=$((SECONDS - start))
+  done_line=$(grep -E '^#[0-9]+[[:space:]]+DONE' "$log" | tail -1 || true)
+  runs=$(grep -oE 'stat::number_of_executed_units:[[:space:]]*[0-9]+' "$log" | grep -oE '[0-9]+$' || echo '?')
+  cov=$(sed -nE 's/.* cov: ([0-9]+) ft: ([0-9]+) corp: ([0-9]+).*/cov \1  ft \2  corpus \3/p' <<<"$done_line")
+  if [ "$status" -ne 0 ] || [ -z "$done_line" ]; then
+    failed+=("$t")
+    cov="FAILED (exit $status), see fuzz/$log and fuzz/artifacts/$t/"
+    grep -E 'panicked|ERROR|SUMMARY|Test unit written' "$log" | head -5 || true
+  fi
+  summary+=("$(printf '%-12s %5d s  %10s runs  %s' "$t" "$took" "$runs" "$cov")")
+  echo "${summary[-1]}"
+done
+
+echo
+echo "fuzzing, $seconds s a target:"
+printf '%s\n' "${summary[@]}"
+if [ ${#failed[@]} -ne 0 ]; then
+  echo "FAIL: ${failed[*]}"
+  exit 1
+fi
