@@ -250,7 +250,9 @@ fn endless_devices_fail_on_their_first_bytes() {
             &d,
             &[command, "-q", "-", "--format", "pcd", "-o", "o.ply"],
             random,
-            &["standard input: line 1: not text"],
+            // Line 1 of noise is text about once in 130 runs; one of the
+            // first eight lines is not.
+            &["standard input: line ", ": not text: byte "],
         );
     }
     // eval and render tell the format by the extension: links to the devices.

@@ -136,7 +136,7 @@ fn opening(format: Option<&str>, head: &[u8]) -> Result<Option<Longest>, ReadErr
         Some("las" | "laz") => magic(head, b"LASF", "LAS"),
         Some("e57") => magic(head, b"ASTM-E57", "E57"),
         Some("stl") => binary_stl(head),
-        Some(_) => first_line_text(head).map(|()| None),
+        Some(format) => head_text(head, format == "pcd").map(|()| None),
         None if [&b"ply"[..], b"LASF", b"ASTM-E57"]
             .iter()
             .any(|m| head.starts_with(m)) =>
@@ -144,7 +144,7 @@ fn opening(format: Option<&str>, head: &[u8]) -> Result<Option<Longest>, ReadErr
             Ok(None)
         }
         // Binary, with no magic: a binary STL is the one format it can be.
-        None => match first_line_text(head) {
+        None => match head_text(head, true) {
             Ok(()) => Ok(None),
             Err(text) => binary_stl(head).map_err(|_| text).map(|longest| {
                 longest.map(|l| Longest {
@@ -160,19 +160,53 @@ fn first_line(head: &[u8]) -> &[u8] {
     head.split(|&b| b == b'\n').next().unwrap_or_default()
 }
 
+/// Lines at the start of a text format that must be text ([`head_text`]): a
+/// stream of noise has a line of text by chance about once in 130 (a newline
+/// early, before any NUL or bad UTF-8), eight in a row practically never, and
+/// every real file of a text format has them (a PCD header has at least eight
+/// lines up to and including `DATA`, or ends there).
+const TEXT_LINES: usize = 8;
+
+/// `Err` when one of the first [`TEXT_LINES`] lines of `head` holds a NUL
+/// byte or is not UTF-8 (a character cut by the end of `head` passes). A line
+/// starting with `DATA` ends the look when `pcd` (a binary PCD's data follows
+/// it).
+fn head_text(head: &[u8], pcd: bool) -> Result<(), ReadErrorKind> {
+    let mut rest = head;
+    for number in 1..=TEXT_LINES {
+        let (line, more) = match rest.iter().position(|&b| b == b'\n') {
+            Some(i) => (&rest[..i], Some(&rest[i + 1..])),
+            None => (rest, None),
+        };
+        line_text(number, line, more.is_none())?;
+        let data_follows = pcd && line.starts_with(b"DATA");
+        match more {
+            Some(more) if !more.is_empty() && !data_follows => rest = more,
+            _ => break,
+        }
+    }
+    Ok(())
+}
+
 /// `Err` when the first line of `head` (all of it without a newline) holds a
 /// NUL byte or is not UTF-8 (but for a character the end of `head` cuts).
 fn first_line_text(head: &[u8]) -> Result<(), ReadErrorKind> {
     let line = first_line(head);
+    line_text(1, line, line.len() == head.len())
+}
+
+/// `Err` naming line `number` when `line` holds a NUL byte or is not UTF-8;
+/// a character cut at its end passes when `cut` (the head ends there).
+fn line_text(number: usize, line: &[u8], cut: bool) -> Result<(), ReadErrorKind> {
     if let Some(i) = line.iter().position(|&b| b == 0) {
         return Err(ReadErrorKind::line(
-            1,
+            number,
             format!("not text: byte {} of the line is a NUL byte", i + 1),
         ));
     }
     match std::str::from_utf8(line) {
-        Err(e) if e.error_len().is_some() => Err(ReadErrorKind::line(
-            1,
+        Err(e) if e.error_len().is_some() || !cut => Err(ReadErrorKind::line(
+            number,
             format!(
                 "not text: byte {} of the line is not valid UTF-8",
                 e.valid_up_to() + 1
@@ -249,6 +283,14 @@ mod tests {
         assert!(err(Some("ply"), b"PK\x03\x04 zip\n").contains("not a PLY file"));
         assert!(err(Some("las"), &zeros).contains("not a LAS file"));
         assert!(err(Some("xyz"), b"1 2 \xff\n").contains("byte 5 of the line is not valid UTF-8"));
+        // Noise with a newline early: its first line is text by chance, the
+        // next ones are not.
+        assert_eq!(
+            err(Some("pcd"), b"\n\n# a\n\x01\x80\x02\n"),
+            "line 4: not text: byte 2 of the line is not valid UTF-8"
+        );
+        // A character cut before a newline is not one cut by the head's end.
+        assert!(err(Some("xyz"), b"1 2 \xc3\n3").contains("line 1: not text"));
         // Zeros are a binary STL of no triangles: 84 bytes, no more.
         let l = opening(Some("stl"), &zeros).unwrap().unwrap();
         assert_eq!(l.bytes, 84);
@@ -272,9 +314,16 @@ mod tests {
         );
         assert_eq!(opening(Some("ply"), b"pl").unwrap(), None);
         assert_eq!(
-            opening(Some("xyz"), "1 2 3 é\n\0".as_bytes()).unwrap(),
+            opening(Some("xyz"), "1 2 3 é\n".repeat(8).as_bytes()).unwrap(),
             None
         );
+        // Only the first eight lines are looked at; a binary PCD's data
+        // follows its DATA line.
+        let ninth = "1 2 3\n".repeat(8) + "\0\n";
+        assert_eq!(opening(Some("xyz"), ninth.as_bytes()).unwrap(), None);
+        let pcd = b"FIELDS x y z\nPOINTS 1\nDATA binary\n\0\0\0\0\xff";
+        assert_eq!(opening(Some("pcd"), pcd).unwrap(), None);
+        assert_eq!(opening(None, pcd).unwrap(), None);
         // A character cut by the end of the head.
         assert_eq!(
             opening(Some("xyz"), &"1 2 é".as_bytes()[..5]).unwrap(),
