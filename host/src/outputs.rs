@@ -13,21 +13,28 @@ use std::io;
 use std::path::{Path, PathBuf};
 
 /// Checks that a run reading `input` (`None`: a built-in sample) can write
-/// `output` (`-o`) and `report` (`--report`): neither is the input file nor
-/// the other one (by canonical path, or by device and inode where both exist),
-/// neither is a directory, and each one's directory exists and takes a new
-/// file (a probe file is made there and removed).
+/// `output` (`-o`) and `report` (`--report`): [`check_targets`] with one input.
 pub fn check_outputs(
     input: Option<&Path>,
     output: &Path,
     report: Option<&Path>,
 ) -> Result<(), String> {
+    check_targets(input.as_slice(), output, report)
+}
+
+/// Checks that a run reading `inputs` can write `output` (`-o`) and `report`
+/// (`--report`): neither is one of the input files nor the other one (by
+/// canonical path, or by device and inode where both exist), neither is a
+/// directory, and each one's directory exists and takes a new file (a probe
+/// file is made there and removed).
+pub fn check_targets(inputs: &[&Path], output: &Path, report: Option<&Path>) -> Result<(), String> {
     let targets = std::iter::once(("-o", output)).chain(report.map(|r| ("--report", r)));
+    let which = if inputs.len() > 1 { "an" } else { "the" };
     for (flag, path) in targets.clone() {
-        if let Some(input) = input.filter(|i| !is_stdio(i)) {
+        for &input in inputs.iter().filter(|i| !is_stdio(i)) {
             if same_file(input, path) {
                 return Err(format!(
-                    "{}: {flag} names the input file; write to another file",
+                    "{}: {flag} names {which} input file; write to another file",
                     path.display()
                 ));
             }

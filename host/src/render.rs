@@ -636,16 +636,19 @@ pub fn render_mesh(
 
 /// Writes `img` as an 8-bit RGB PNG, atomically (see [`write_atomic`]).
 pub fn save_png(path: &Path, img: &Image) -> Result<(), WriteError> {
-    write_atomic(path, |w| {
-        let mut enc = png::Encoder::new(w, img.width, img.height);
-        enc.set_color(png::ColorType::Rgb);
-        enc.set_depth(png::BitDepth::Eight);
-        let mut writer = enc.write_header().map_err(io::Error::other)?;
-        writer
-            .write_image_data(&img.pixels)
-            .map_err(io::Error::other)?;
-        writer.finish().map_err(io::Error::other)
-    })
+    write_atomic(path, |w| write_png(w, img))
+}
+
+/// Encodes `img` as an 8-bit RGB PNG into `w`.
+pub fn write_png(w: &mut dyn io::Write, img: &Image) -> io::Result<()> {
+    let mut enc = png::Encoder::new(w, img.width, img.height);
+    enc.set_color(png::ColorType::Rgb);
+    enc.set_depth(png::BitDepth::Eight);
+    let mut writer = enc.write_header().map_err(io::Error::other)?;
+    writer
+        .write_image_data(&img.pixels)
+        .map_err(io::Error::other)?;
+    writer.finish().map_err(io::Error::other)
 }
 
 /// Height of a label band in [`hstack`]: 7-row glyphs at scale 2 plus padding.

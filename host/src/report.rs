@@ -15,7 +15,7 @@ use crate::args::{InputArgs, MemoryArgs};
 use crate::eval::{check_solid, Solid, Topology, Validity};
 use crate::input::{Source, SAMPLE_SEED};
 use crate::io::write::mesh::f32_step;
-use crate::io::{is_stdio, write_to, Coords, MeshLayout, Precision};
+use crate::io::{is_stdio, stage_to, Coords, MeshLayout, Precision, Staged};
 use crate::progress::{StageClock, Timings};
 use crate::stdout;
 use serde::Serialize;
@@ -52,27 +52,36 @@ impl Header {
     }
 }
 
-/// Prints a report's `text` and, when `json_path` is given, writes `json()`
-/// there with [`write_to`] (the JSON is only made when it is asked for). The
-/// text goes to stdout, or to stderr when stdout carries the output (`output`
-/// or `json_path` is `-`). A stream that cannot be written (closed, full) is
-/// an error.
+/// Prints a report's `text`, then puts the run's files in place: `staged`
+/// (the run's output, written in full but not committed) and, when
+/// `json_path` is given, `json()` (only made when it is asked for), staged
+/// before the text is printed. The text goes to stdout, or to stderr when
+/// stdout carries the output (`output` or `json_path` is `-`). A stream that
+/// cannot be written (closed, full) is an error, and then no file is left:
+/// the staged ones are removed, an existing target keeps its old content.
 pub fn publish(
     text: &str,
     output: &Path,
+    staged: Staged,
     json_path: Option<&Path>,
     json: impl FnOnce() -> Result<String, String>,
 ) -> Result<(), String> {
+    let report = match json_path {
+        Some(path) => {
+            let body = json()?;
+            Some(stage_to(path, |w| w.write_all(body.as_bytes()))?)
+        }
+        None => None,
+    };
     if is_stdio(output) || json_path.is_some_and(is_stdio) {
         stdout::eprint(text)?;
     } else {
         stdout::print(text)?;
     }
-    let Some(path) = json_path else {
-        return Ok(());
-    };
-    let body = json()?;
-    write_to(path, |w| w.write_all(body.as_bytes()))
+    for file in std::iter::once(staged).chain(report) {
+        file.commit().map_err(|e| e.to_string())?;
+    }
+    Ok(())
 }
 
 /// `report` as indented JSON, ending in a newline.

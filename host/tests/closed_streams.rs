@@ -85,12 +85,12 @@ fn no_command_panics_when_stdout_or_stderr_cannot_be_written() {
     .concat();
     let cluster = [&cluster[..], &["--tolerance", "0.0001", "-o", &cloud]].concat();
     // The inputs of eval and render.
-    let (code, stderr) = run(&reconstruct, Sink::Full, true);
-    assert_eq!(code, Some(1), "{stderr}");
-    assert!(stderr.contains("warning:"), "no warning to test: {stderr}");
-    let (code, stderr) = run(&cluster, Sink::Full, true);
-    assert_eq!(code, Some(1), "{stderr}");
-    assert!(stderr.contains("warning:"), "no warning to test: {stderr}");
+    for args in [&reconstruct, &cluster] {
+        let r = bin().args(args).stdout(Stdio::null()).output().unwrap();
+        let stderr = String::from_utf8_lossy(&r.stderr);
+        assert!(r.status.success(), "{args:?}: {stderr}");
+        assert!(stderr.contains("warning:"), "no warning to test: {stderr}");
+    }
 
     // (arguments, exit code with stdout failing, with stderr failing)
     let cases: Vec<(Vec<&str>, i32, i32)> = vec![
@@ -130,5 +130,79 @@ fn no_command_panics_when_stdout_or_stderr_cannot_be_written() {
             let (code, _) = run(args, sink, false);
             assert_eq!(code, Some(*on_stderr_fail), "{args:?} {sink:?} stderr");
         }
+    }
+}
+
+/// A run whose report cannot be printed fails, and then leaves no file: the
+/// mesh, the clusters, the JSON report and the PNG are staged and put in
+/// place only after the text is out, and an earlier file of that name keeps
+/// its content.
+#[test]
+fn a_run_that_cannot_print_its_report_leaves_no_file() {
+    if !Path::new("/dev/full").exists() {
+        eprintln!("skipped: no /dev/full");
+        return;
+    }
+    let d = common::dir("closed_streams", "no_file");
+    let at = |name: &str| d.join(name).to_str().unwrap().to_string();
+    let (mesh, cloud, json, png, kept) = (
+        at("m.ply"),
+        at("c.ply"),
+        at("r.json"),
+        at("r.png"),
+        at("kept.ply"),
+    );
+    let sample = ["--sample", "sphere", "--points", "2000", "--clusters", "60"];
+    let made = |out: &str| {
+        let args = [&["reconstruct", "-q"][..], &sample, &["-o", out]].concat();
+        let r = bin().args(&args).stdout(Stdio::null()).output().unwrap();
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    };
+    made(&kept);
+    let before = std::fs::read(&kept).unwrap();
+    let cases: Vec<Vec<&str>> = vec![
+        [
+            &["reconstruct"][..],
+            &sample,
+            &["-o", &mesh, "--report", &json],
+        ]
+        .concat(),
+        [
+            &["cluster"][..],
+            &sample,
+            &["-o", &cloud, "--report", &json],
+        ]
+        .concat(),
+        // Over an existing file: it keeps its content.
+        [&["reconstruct"][..], &sample, &["--seed", "7", "-o", &kept]].concat(),
+        vec!["render", &kept, "-o", &png, "--size", "32x32"],
+    ];
+    for args in &cases {
+        for sink in [Sink::Full, Sink::Closed] {
+            let (code, stderr) = run(args, sink, true);
+            assert_eq!(code, Some(1), "{args:?} {sink:?}: {stderr}");
+            assert!(
+                stderr.contains("cannot write to standard output"),
+                "{stderr}"
+            );
+            let mut left: Vec<String> = std::fs::read_dir(&d)
+                .unwrap()
+                .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+                .collect();
+            left.sort();
+            assert_eq!(left, ["kept.ply"], "{args:?} {sink:?} left files behind");
+            assert!(
+                std::fs::read(&kept).unwrap() == before,
+                "{args:?}: kept.ply changed"
+            );
+        }
+    }
+    // The same runs with stdout working write every file.
+    for args in &cases[..2] {
+        let r = bin().args(args).stdout(Stdio::null()).output().unwrap();
+        assert!(r.status.success(), "{}", String::from_utf8_lossy(&r.stderr));
+    }
+    for file in [&mesh, &cloud, &json] {
+        assert!(Path::new(file).is_file(), "{file} not written");
     }
 }

@@ -370,3 +370,25 @@ fn coordinates_past_the_limit_are_named_with_their_value_and_float32_range_is_ke
         "largest coordinate {largest:e}"
     );
 }
+
+#[test]
+fn render_checks_its_output_before_reading_any_mesh() {
+    let d = dir("render_output");
+    // The meshes do not exist: an error about them would mean they were read
+    // before the output was checked.
+    fails(
+        &d,
+        &["render", "mesh.ply", "-o", "nope/x.png"],
+        &["nope/x.png: directory nope not found"],
+    );
+    fails(
+        &d,
+        &["render", "a.ply", "mesh.ply", "-o", "mesh.ply"],
+        &["mesh.ply: -o names an input file"],
+    );
+    fails(
+        &d,
+        &["render", "mesh.ply", "--points", "c.ply", "-o", "c.ply"],
+        &["c.ply: -o names an input file"],
+    );
+}

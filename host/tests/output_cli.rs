@@ -355,6 +355,29 @@ fn a_cloud_on_standard_input_becomes_a_ply_on_standard_output() {
     assert_eq!(r.status.code(), Some(1), "{stderr}");
     assert!(stderr.starts_with("error: standard input: "), "{stderr}");
     assert!(r.stdout.is_empty());
+    // render -o - writes the PNG to stdout (not a file named "-"), the same
+    // bytes as to a file, and says so on stderr.
+    let png = d.join("file.png");
+    let file = file.to_str().unwrap();
+    let render = ["render", file, "--size", "48x32", "-o"];
+    ok(&piped(
+        &[&render[..], &[png.to_str().unwrap()]].concat(),
+        b"",
+        None,
+    ));
+    let r = bin()
+        .args([&render[..], &["-"]].concat())
+        .current_dir(&d)
+        .output()
+        .unwrap();
+    ok(&r);
+    assert!(
+        r.stdout == std::fs::read(&png).unwrap(),
+        "stdout is not the PNG"
+    );
+    assert!(!d.join("-").exists(), "a file named '-' was written");
+    let stderr = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(stderr, "wrote the PNG to standard output (48x32)\n");
 }
 
 #[test]

@@ -2,7 +2,7 @@
 
 use crate::args::{CleanArgs, ClusterArgs, InputArgs, MemoryArgs};
 use crate::clean::{read_and_clean, Cleaned, RunBytes};
-use crate::io::{write_points_ply, write_to};
+use crate::io::{stage_to, write_points_ply, Staged};
 use crate::outputs::check_outputs;
 use crate::progress::StageClock;
 use crate::report::{
@@ -184,14 +184,18 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
     )?;
     let mut clock = StageClock::new(!cmd.quiet).with_threads(cmd.memory.threads());
     let mut made = make(cmd, &mut clock)?;
-    clock.time("write", || write_clusters(&cmd.output, &made))?;
+    let staged = clock.time("write", || write_clusters(&cmd.output, &made))?;
     for warning in made.warnings() {
         stdout::warn(format_args!("warning: {warning}"));
     }
     let report = made.report(&clock, &cmd.output);
-    publish(&report.text(), &cmd.output, cmd.report.as_deref(), || {
-        report_json(report)
-    })
+    publish(
+        &report.text(),
+        &cmd.output,
+        staged,
+        cmd.report.as_deref(),
+        || report_json(report),
+    )
 }
 
 /// Clusters made for a library caller (the Python module).
@@ -225,8 +229,8 @@ pub fn cluster(cmd: &Cmd) -> Result<Clusters, String> {
 }
 
 /// The clustered points coloured by cluster, then the generators in black,
-/// each with its cluster's id.
-fn write_clusters(path: &Path, made: &Made) -> Result<(), String> {
+/// each with its cluster's id, staged for `path`.
+fn write_clusters(path: &Path, made: &Made) -> Result<Staged, String> {
     let gens = &made.generators;
     let mut pts = made.points.clone();
     pts.extend(gens);
@@ -234,7 +238,7 @@ fn write_clusters(path: &Path, made: &Made) -> Result<(), String> {
     let mut colours: Vec<[u8; 3]> = ids.iter().map(|&l| label_colour(l)).collect();
     colours.extend(std::iter::repeat_n([0, 0, 0], gens.len()));
     ids.extend(0..gens.len() as u32);
-    write_to(path, |w| {
+    stage_to(path, |w| {
         write_points_ply(w, &pts, &colours, Some(("cluster", &ids)))
     })
 }

@@ -5,7 +5,7 @@ use crate::args::{CleanArgs, ClusterArgs, InputArgs, MemoryArgs};
 use crate::attributes::{vertex_colors, vertex_normals};
 use crate::clean::{read_and_clean, Cleaned, RunBytes};
 use crate::io::write::mesh::AUTO_F32_SHARE;
-use crate::io::{write_mesh, write_to, MeshFormat, MeshLayout, MeshOut, Precision};
+use crate::io::{stage_to, write_mesh, MeshFormat, MeshLayout, MeshOut, Precision};
 use crate::limits::{at_most, MAX_MESH_BYTES_PER_CLUSTER};
 use crate::outputs::check_outputs;
 use crate::progress::StageClock;
@@ -370,8 +370,8 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
         normals: normals.as_deref(),
         colors,
     };
-    clock.time("write", || {
-        write_to(&cmd.output, |w| write_mesh(w, &layout, &mesh))
+    let staged = clock.time("write", || {
+        stage_to(&cmd.output, |w| write_mesh(w, &layout, &mesh))
     })?;
     let (name, max_error) = (made.name.clone(), made.params.max_error);
     let report = made.report(&clock, check, Some(file), &cmd.output);
@@ -395,9 +395,13 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
             }
         ));
     }
-    publish(&report.text(), &cmd.output, cmd.report.as_deref(), || {
-        report_json(&report)
-    })
+    publish(
+        &report.text(),
+        &cmd.output,
+        staged,
+        cmd.report.as_deref(),
+        || report_json(&report),
+    )
 }
 
 /// A mesh reconstructed for a library caller (the Python module): nothing

@@ -1,11 +1,14 @@
 //! `vsaqem render MESH... -o FILE.png`: look at meshes (side by side when several).
+//! `-o -` writes the PNG to standard output (and the line saying so to standard error).
 
-use crate::io::{read_cloud, read_mesh};
+use crate::io::{is_stdio, read_cloud, read_mesh, stage_to};
+use crate::outputs::check_targets;
 use crate::render::{
-    check_size, hstack, render_mesh, save_png, RenderOptions, Up, View, MAX_SAMPLES,
+    check_size, hstack, render_mesh, write_png, RenderOptions, Up, View, MAX_SAMPLES,
 };
+use crate::stdout;
 use clap::Args;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// `vsaqem render`.
 #[derive(Args, Debug)]
@@ -71,6 +74,15 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
             cmd.meshes.len()
         ));
     }
+    // Before any mesh is read: an output that cannot be written, or that is
+    // one of the inputs, fails at once.
+    let inputs: Vec<&Path> = cmd
+        .meshes
+        .iter()
+        .chain(&cmd.points)
+        .map(PathBuf::as_path)
+        .collect();
+    check_targets(&inputs, &cmd.output, None)?;
     let mut meshes = Vec::with_capacity(cmd.meshes.len());
     for path in &cmd.meshes {
         meshes.push(read_mesh(path).map_err(|e| e.to_string())?);
@@ -126,11 +138,26 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
         let labels: Vec<&str> = names.iter().map(String::as_str).collect();
         hstack(&images, Some(&labels))
     };
-    save_png(&cmd.output, &img).map_err(|e| e.to_string())?;
-    crate::stdout::print(&format!(
-        "wrote {} ({}x{})\n",
-        cmd.output.display(),
-        img.width,
-        img.height
-    ))
+    let staged = stage_to(&cmd.output, |w| write_png(w, &img))?;
+    let done = if is_stdio(&cmd.output) {
+        format!(
+            "wrote the PNG to standard output ({}x{})\n",
+            img.width, img.height
+        )
+    } else {
+        format!(
+            "wrote {} ({}x{})\n",
+            cmd.output.display(),
+            img.width,
+            img.height
+        )
+    };
+    if is_stdio(&cmd.output) {
+        stdout::eprint(&done)?;
+    } else {
+        // The file is put in place only once its line is printed, so a
+        // failed run leaves no file.
+        stdout::print(&done)?;
+    }
+    staged.commit().map_err(|e| e.to_string())
 }

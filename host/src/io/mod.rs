@@ -41,8 +41,8 @@ pub mod write;
 pub mod xyz;
 
 pub use write::{
-    write_atomic, write_mesh, write_points_ply, write_to, Coords, MeshFormat, MeshLayout, MeshOut,
-    Precision, WriteError,
+    stage, stage_to, write_atomic, write_mesh, write_points_ply, write_to, Coords, MeshFormat,
+    MeshLayout, MeshOut, Precision, Staged, WriteError,
 };
 
 /// A point cloud as read from a file, in the file's own units (`f64`).

@@ -9,6 +9,9 @@
 //! in place: renaming over them would replace the device with a plain file. A symbolic
 //! link is followed, so the link stays and the file it names gets the new content.
 //! [`write_to`] does the same for a path, and writes `-` to standard output.
+//! [`stage`] and [`stage_to`] stop before the rename: a command that writes several
+//! files, or prints a report after its file, commits them ([`Staged::commit`]) only
+//! when everything else has succeeded, so a failure leaves none of them.
 //! The format writers stream into any `Write` and validate their input first
 //! (matching lengths, indices in range) so a bad call is an `InvalidInput` error, not a
 //! corrupt file. Cost: O(output size), one 64 KiB buffer.
@@ -47,16 +50,68 @@ impl std::error::Error for WriteError {
     }
 }
 
-/// Removes the temporary file unless disarmed (also when the closure panics).
-struct TempGuard {
-    path: Option<PathBuf>,
+/// A file written in full beside its target but not yet in its place:
+/// [`Staged::commit`] renames it over the target; dropping it uncommitted
+/// (an error later in the run, a panic) removes it and leaves the target as it
+/// was. A run that writes several files stages them all and commits them last,
+/// so a failure at any step before (a full standard output included) leaves
+/// none of them behind.
+#[must_use = "a staged file is removed unless it is committed"]
+pub struct Staged {
+    /// The temporary file; `None` once committed, or when the target was
+    /// written in place (standard output, a device, a pipe).
+    tmp: Option<PathBuf>,
+    /// The file the temporary one becomes (a symbolic link resolved).
+    target: PathBuf,
+    /// The target as the caller named it, for errors.
+    named: PathBuf,
 }
 
-impl Drop for TempGuard {
+impl Staged {
+    /// Nothing to commit: the target was written in place.
+    fn in_place(path: &Path) -> Self {
+        Staged {
+            tmp: None,
+            target: path.to_path_buf(),
+            named: path.to_path_buf(),
+        }
+    }
+
+    /// Renames the file over its target (and syncs the directory where that
+    /// can be done, best effort). On failure the temporary file is removed and
+    /// the target is unchanged.
+    pub fn commit(mut self) -> Result<(), WriteError> {
+        let Some(tmp) = self.tmp.take() else {
+            return Ok(());
+        };
+        if let Err(source) = fs::rename(&tmp, &self.target) {
+            let _ = fs::remove_file(&tmp);
+            return Err(WriteError {
+                path: self.named.clone(),
+                source,
+            });
+        }
+        #[cfg(unix)]
+        if let Ok(d) = File::open(parent_dir(&self.target)) {
+            let _ = d.sync_all();
+        }
+        Ok(())
+    }
+}
+
+impl Drop for Staged {
     fn drop(&mut self) {
-        if let Some(p) = self.path.take() {
+        if let Some(p) = self.tmp.take() {
             let _ = fs::remove_file(p);
         }
+    }
+}
+
+/// The directory `path` is in (`.` for a bare name).
+fn parent_dir(path: &Path) -> &Path {
+    match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
     }
 }
 
@@ -85,20 +140,33 @@ pub(crate) fn create_scratch(dir: &Path, kind: &str) -> io::Result<(PathBuf, Fil
     }
 }
 
-/// Writes `path` atomically: `f` writes into a buffered hidden temporary file in the
-/// same directory (made by `create_scratch`, with a short name of its own), which is flushed, `sync_all`ed and renamed over
-/// `path`. On any error (or panic in `f`) the temporary file is removed and an existing
-/// `path` is left untouched. A `path` that exists and is not a regular file or a
-/// directory (a device, a pipe, a socket) is opened and written directly, without the
-/// atomicity; a symbolic link is resolved first.
+/// Writes `path` atomically: [`stage`], then [`Staged::commit`]. On any error
+/// (or panic in `f`) the temporary file is removed and an existing `path` is
+/// left untouched.
 pub fn write_atomic(
     path: &Path,
     f: impl FnOnce(&mut dyn Write) -> io::Result<()>,
 ) -> Result<(), WriteError> {
+    stage(path, f)?.commit()
+}
+
+/// Writes what `path` is to hold without putting it in place yet: `f` writes
+/// into a buffered hidden temporary file in the same directory (made by
+/// `create_scratch`, with a short name of its own), which is flushed and
+/// `sync_all`ed; [`Staged::commit`] renames it over `path`. On any error (or
+/// panic in `f`) the temporary file is removed. A `path` that exists and is
+/// not a regular file or a directory (a device, a pipe, a socket) is opened
+/// and written directly, without the atomicity, and there is nothing left to
+/// commit; a symbolic link is resolved first.
+pub fn stage(
+    path: &Path,
+    f: impl FnOnce(&mut dyn Write) -> io::Result<()>,
+) -> Result<Staged, WriteError> {
     let fail = |source: io::Error| WriteError {
         path: path.to_path_buf(),
         source,
     };
+    let named = path;
     let resolved;
     let mut path = path;
     if let Ok(meta) = fs::metadata(path) {
@@ -110,7 +178,7 @@ pub fn write_atomic(
             let mut w = BufWriter::with_capacity(1 << 16, file);
             f(&mut w).map_err(fail)?;
             w.flush().map_err(fail)?;
-            return Ok(());
+            return Ok(Staged::in_place(path));
         }
         if fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink()) {
             resolved = fs::canonicalize(path).map_err(fail)?;
@@ -123,27 +191,18 @@ pub fn write_atomic(
             "the path has no file name",
         )));
     }
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    let (tmp, file) = create_scratch(dir, "tmp").map_err(fail)?;
-    let mut guard = TempGuard {
-        path: Some(tmp.clone()),
+    let (tmp, file) = create_scratch(parent_dir(path), "tmp").map_err(fail)?;
+    // From here on, dropping `staged` (an error, a panic in `f`) removes `tmp`.
+    let staged = Staged {
+        tmp: Some(tmp),
+        target: path.to_path_buf(),
+        named: named.to_path_buf(),
     };
     let mut w = BufWriter::with_capacity(1 << 16, file);
     f(&mut w).map_err(fail)?;
     let file = w.into_inner().map_err(|e| fail(e.into_error()))?;
     file.sync_all().map_err(fail)?;
-    drop(file);
-    fs::rename(&tmp, path).map_err(fail)?;
-    guard.path = None;
-    // Make the rename itself durable where directories can be synced; best effort.
-    #[cfg(unix)]
-    if let Ok(d) = File::open(dir) {
-        let _ = d.sync_all();
-    }
-    Ok(())
+    Ok(staged)
 }
 
 /// Writes `path` with `f`: `-` is standard output (an error, never a panic,
@@ -157,6 +216,21 @@ pub fn write_to(
         crate::stdout::write_with(f)
     } else {
         write_atomic(path, f).map_err(|e| e.to_string())
+    }
+}
+
+/// [`write_to`], but a file is only staged ([`stage`]): `-` is written to
+/// standard output at once, and nothing is in place for a file until the
+/// caller commits it.
+pub fn stage_to(
+    path: &Path,
+    f: impl FnOnce(&mut dyn Write) -> io::Result<()>,
+) -> Result<Staged, String> {
+    if path.as_os_str() == "-" {
+        crate::stdout::write_with(f)?;
+        Ok(Staged::in_place(path))
+    } else {
+        stage(path, f).map_err(|e| e.to_string())
     }
 }
 
