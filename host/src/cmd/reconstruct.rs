@@ -283,22 +283,25 @@ fn make(cmd: &Cmd, clock: &mut StageClock) -> Result<Made, String> {
 
 impl Made {
     /// An error when the mesh checked in `check` has no face with area and
-    /// `allow_empty` is off; a warning when it is on.
-    fn refuse_empty(&self, check: &MeshCheck, allow_empty: bool) -> Result<(), String> {
-        if let Some(why) = empty(check, &self.meshing_stats) {
-            if !allow_empty {
-                return Err(format!(
-                    "{}: {why}; nothing written ({}; --allow-empty writes it anyway)",
-                    self.name,
-                    empty_advice(self.points, &self.params)
-                ));
-            }
-            stdout::warn(format_args!(
-                "warning: {}: {why}; written as asked (--allow-empty)",
-                self.name
-            ));
+    /// `allow_empty` is off, saying what the caller does instead (`done`:
+    /// "; nothing written" for the CLI) and how to ask for it anyway
+    /// (`allow`); otherwise why it is empty, if it is.
+    fn refuse_empty(
+        &self,
+        check: &MeshCheck,
+        allow_empty: bool,
+        done: &str,
+        allow: &str,
+    ) -> Result<Option<String>, String> {
+        match empty(check, &self.meshing_stats) {
+            None => Ok(None),
+            Some(why) if allow_empty => Ok(Some(why)),
+            Some(why) => Err(format!(
+                "{}: {why}{done} ({}; {allow} anyway)",
+                self.name,
+                empty_advice(self.points, &self.params)
+            )),
         }
-        Ok(())
     }
 
     /// The run's report, the clock read now; `file` is what was written
@@ -363,7 +366,13 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
     let stored: Vec<[f64; 3]> = vertices.iter().map(|&p| layout.stored(p)).collect();
     let check = clock.time("check", || MeshCheck::new(&stored, triangles));
     drop(stored);
-    made.refuse_empty(&check, cmd.allow_empty)?;
+    let allow = "--allow-empty writes it";
+    if let Some(why) = made.refuse_empty(&check, cmd.allow_empty, "; nothing written", allow)? {
+        stdout::warn(format_args!(
+            "warning: {}: {why}; written as asked (--allow-empty)",
+            made.name
+        ));
+    }
     let mesh = MeshOut {
         vertices,
         triangles,
@@ -425,15 +434,7 @@ pub fn reconstruct(cmd: &Cmd) -> Result<Reconstructed, String> {
     let mut clock = StageClock::new(false).with_threads(cmd.memory.threads());
     let made = make(cmd, &mut clock)?;
     let check = clock.time("check", || MeshCheck::new(&made.vertices, &made.triangles));
-    if let Some(why) = empty(&check, &made.meshing_stats) {
-        if !cmd.allow_empty {
-            return Err(format!(
-                "{}: {why} ({}; allow_empty returns it anyway)",
-                made.name,
-                empty_advice(made.points, &made.params)
-            ));
-        }
-    }
+    made.refuse_empty(&check, cmd.allow_empty, "", "allow_empty returns it")?;
     let mut made = made;
     let vertices = std::mem::take(&mut made.vertices);
     let triangles = std::mem::take(&mut made.triangles);
