@@ -13,7 +13,7 @@
 
 use crate::args::{InputArgs, MemoryArgs};
 use crate::eval::{check_solid, Solid, Topology, Validity};
-use crate::input::{Source, SAMPLE_SEED};
+use crate::input::{Prepared, Source, SAMPLE_SEED};
 use crate::io::write::mesh::f32_step;
 use crate::io::{is_stdio, stage_to, Coords, MeshLayout, Precision, Staged};
 use crate::progress::{StageClock, Timings};
@@ -134,30 +134,25 @@ pub struct InputReport {
 }
 
 impl InputReport {
-    /// The report of `input` (points `points` after cleaning, with `normals`)
-    /// read from `source`: `distinct` points before cleaning, after merging
-    /// `duplicates` exact duplicates, and `invalid` skipped by the reader,
-    /// `clean` what cleaning with `params` removed (`None`: it did not run),
-    /// `diagonal` in file units.
-    #[allow(clippy::too_many_arguments)]
+    /// The report of the points of a run with `args`, as cleaning left them
+    /// (`input`): `distinct` points before cleaning (after merging exact
+    /// duplicates), `clean` what cleaning with `params` removed (`None`: it did
+    /// not run), `diagonal` in file units.
     pub fn new(
-        source: Source,
+        args: &InputArgs,
+        input: &Prepared,
         distinct: usize,
-        duplicates: usize,
-        invalid: usize,
-        points: usize,
-        normals: bool,
         clean: Option<&CleanStats>,
         params: &Params,
         diagonal: f64,
     ) -> Self {
         InputReport {
-            input: source,
-            points_read: distinct + duplicates,
-            invalid_skipped: invalid,
-            duplicates_merged: duplicates,
-            points,
-            normals_given: normals,
+            input: source(args),
+            points_read: distinct + input.duplicates,
+            invalid_skipped: input.invalid,
+            duplicates_merged: input.duplicates,
+            points: input.points.len(),
+            normals_given: input.normals.is_some(),
             diagonal,
             clean: CleanReport::new(clean, params),
         }
@@ -924,19 +919,18 @@ mod tests {
             pieces: 1,
             ..CleanStats::default()
         };
-        let r = InputReport::new(
-            Source::File {
+        let r = InputReport {
+            input: Source::File {
                 path: "scan.xyz".into(),
             },
-            400,
-            3600,
-            0,
-            400,
-            false,
-            Some(&stats),
-            &params,
-            2.0,
-        );
+            points_read: 4000,
+            invalid_skipped: 0,
+            duplicates_merged: 3600,
+            points: 400,
+            normals_given: false,
+            diagonal: 2.0,
+            clean: CleanReport::new(Some(&stats), &params),
+        };
         let text = r.text();
         assert!(
             text.starts_with(

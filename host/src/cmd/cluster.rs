@@ -6,7 +6,7 @@ use crate::io::{stage_to, write_points_ply, Staged};
 use crate::outputs::check_outputs;
 use crate::progress::StageClock;
 use crate::report::{
-    publish, report_json, source, ClusteringReport, Header, InputReport, ParamsReport, RunParams,
+    publish, report_json, ClusteringReport, Header, InputReport, ParamsReport, RunParams,
     RunReport, StagePeaks,
 };
 use crate::stdout;
@@ -101,12 +101,9 @@ fn make(cmd: &Cmd, clock: &mut StageClock) -> Result<Made, String> {
     let report = ClusterReport {
         header: Header::new("cluster"),
         input: InputReport::new(
-            source(&cmd.input),
+            &cmd.input,
+            &input,
             points_read,
-            input.duplicates,
-            input.invalid,
-            input.points.len(),
-            input.normals.is_some(),
             stats.as_ref(),
             &params,
             diag as f64 * input.frame.scale,

@@ -10,7 +10,7 @@ use crate::limits::{at_most, MAX_MESH_BYTES_PER_CLUSTER};
 use crate::outputs::check_outputs;
 use crate::progress::StageClock;
 use crate::report::{
-    publish, report_json, source, ClusteringReport, FileReport, Header, InputReport, MeshCheck,
+    publish, report_json, ClusteringReport, FileReport, Header, InputReport, MeshCheck,
     ParamsReport, RunParams, RunReport, StagePeaks,
 };
 use crate::stdout;
@@ -249,12 +249,9 @@ fn make(cmd: &Cmd, clock: &mut StageClock) -> Result<Made, String> {
         diagonal,
         points: input.points.len(),
         input: InputReport::new(
-            source(&cmd.input),
+            &cmd.input,
+            &input,
             points_read,
-            input.duplicates,
-            input.invalid,
-            input.points.len(),
-            input.normals.is_some(),
             stats.as_ref(),
             &params,
             diagonal,
