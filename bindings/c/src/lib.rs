@@ -696,6 +696,43 @@ fn checked(p: &vsaqem_params, n: usize) -> Result<Params, Error> {
     Ok(params)
 }
 
+/// `$ty { ... }` from `$p`: every field that [`vsaqem_params`] and core's
+/// `Params` share by name and type, copied, plus the `extra` ones. The list
+/// is written once here, for both directions.
+macro_rules! params_from {
+    ($ty:ident, $p:expr, { $($extra:ident: $value:expr),* $(,)? }) => {{
+        let p = $p;
+        $ty {
+            clusters: p.clusters,
+            max_clusters: p.max_clusters,
+            iterations: p.iterations,
+            split_iterations: p.split_iterations,
+            split_rounds: p.split_rounds,
+            tolerance: p.tolerance,
+            lambda: p.lambda,
+            seed: p.seed,
+            epsilon: p.epsilon,
+            alpha_scale: p.alpha_scale,
+            fitting_weight: p.fitting_weight,
+            coverage_weight: p.coverage_weight,
+            border_penalty: p.border_penalty,
+            max_hole: p.max_hole,
+            border_angle: p.border_angle,
+            node_limit: p.node_limit,
+            fit_rounds: p.fit_rounds,
+            densify: p.densify,
+            refine_rounds: p.refine_rounds,
+            max_error: p.max_error,
+            refine_beyond: p.refine_beyond,
+            mesh_bytes_per_cluster: p.mesh_bytes_per_cluster,
+            outlier_sigma: p.outlier_sigma,
+            min_fragment: p.min_fragment,
+            smooth_rounds: p.smooth_rounds,
+            $($extra: $value,)*
+        }
+    }};
+}
+
 /// Core's parameters; `BadParameter` for a partition code that is none.
 fn to_core(p: &vsaqem_params) -> Result<Params, Error> {
     let partition = match p.partition {
@@ -709,72 +746,22 @@ fn to_core(p: &vsaqem_params) -> Result<Params, Error> {
             })
         }
     };
-    Ok(Params {
+    Ok(params_from!(Params, p, {
         k: p.k as usize,
-        clusters: p.clusters,
-        max_clusters: p.max_clusters,
-        iterations: p.iterations,
-        split_iterations: p.split_iterations,
-        split_rounds: p.split_rounds,
-        tolerance: p.tolerance,
-        lambda: p.lambda,
-        seed: p.seed,
-        epsilon: p.epsilon,
-        alpha_scale: p.alpha_scale,
-        fitting_weight: p.fitting_weight,
-        coverage_weight: p.coverage_weight,
-        border_penalty: p.border_penalty,
-        max_hole: p.max_hole,
-        border_angle: p.border_angle,
-        partition,
-        node_limit: p.node_limit,
-        fit_rounds: p.fit_rounds,
-        densify: p.densify,
-        refine_rounds: p.refine_rounds,
-        max_error: p.max_error,
-        refine_beyond: p.refine_beyond,
-        mesh_bytes_per_cluster: p.mesh_bytes_per_cluster,
-        outlier_sigma: p.outlier_sigma,
-        min_fragment: p.min_fragment,
-        smooth_rounds: p.smooth_rounds,
-    })
+        partition: partition,
+    }))
 }
 
 /// The C form of core's parameters.
 fn from_core(p: &Params) -> vsaqem_params {
-    vsaqem_params {
+    params_from!(vsaqem_params, p, {
         k: p.k as u32,
-        clusters: p.clusters,
-        max_clusters: p.max_clusters,
-        iterations: p.iterations,
-        split_iterations: p.split_iterations,
-        split_rounds: p.split_rounds,
-        tolerance: p.tolerance,
-        lambda: p.lambda,
-        seed: p.seed,
-        epsilon: p.epsilon,
-        alpha_scale: p.alpha_scale,
-        fitting_weight: p.fitting_weight,
-        coverage_weight: p.coverage_weight,
-        border_penalty: p.border_penalty,
-        max_hole: p.max_hole,
-        border_angle: p.border_angle,
         partition: match p.partition {
             Partition::Auto => VSAQEM_PARTITION_AUTO,
             Partition::Grow => VSAQEM_PARTITION_GROW,
             Partition::Sweep => VSAQEM_PARTITION_SWEEP,
         },
-        node_limit: p.node_limit,
-        fit_rounds: p.fit_rounds,
-        densify: p.densify,
-        refine_rounds: p.refine_rounds,
-        max_error: p.max_error,
-        refine_beyond: p.refine_beyond,
-        mesh_bytes_per_cluster: p.mesh_bytes_per_cluster,
-        outlier_sigma: p.outlier_sigma,
-        min_fragment: p.min_fragment,
-        smooth_rounds: p.smooth_rounds,
-    }
+    })
 }
 
 /// Core never panics by contract, and nothing here indexes out of bounds; if
