@@ -110,10 +110,10 @@ fn parse_shape(s: &str) -> Result<Shape, String> {
 }
 
 /// A cloud a library caller gives ([`InputArgs::given`]), taken by the one
-/// run that reads it.
-#[derive(Debug, Default)]
+/// run that reads it (clones share it: it is read once, never copied).
+#[derive(Clone, Debug, Default)]
 pub struct Given {
-    cloud: std::sync::Mutex<Option<Cloud>>,
+    cloud: std::sync::Arc<std::sync::Mutex<Option<Cloud>>>,
     points: usize,
 }
 
@@ -122,23 +122,13 @@ impl Given {
     pub fn new(cloud: Cloud) -> Given {
         Given {
             points: cloud.positions.len(),
-            cloud: std::sync::Mutex::new(Some(cloud)),
+            cloud: std::sync::Arc::new(std::sync::Mutex::new(Some(cloud))),
         }
     }
 
     /// Points given.
     pub fn points(&self) -> usize {
         self.points
-    }
-}
-
-impl Clone for Given {
-    fn clone(&self) -> Given {
-        let cloud = self.cloud.lock().map(|c| c.clone()).unwrap_or_default();
-        Given {
-            cloud: std::sync::Mutex::new(cloud),
-            points: self.points,
-        }
     }
 }
 
