@@ -17,7 +17,7 @@ pub struct Cmd {
     /// with their file names and framed alike.
     #[arg(required = true)]
     pub meshes: Vec<PathBuf>,
-    /// Output PNG.
+    /// Output PNG; - writes it to standard output.
     #[arg(short, long)]
     pub output: PathBuf,
     /// Size of each image, WIDTHxHEIGHT: each 1 to 8192, and WIDTH x HEIGHT x
