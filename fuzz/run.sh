@@ -12,6 +12,7 @@
 # else RUSTC_BOOTSTRAP=1 on the default one.
 #   bash fuzz/run.sh 60                # every target, 60 s each
 #   bash fuzz/run.sh 300 reconstruct   # one target
+#   FUZZ_TIMEOUT=300 nice -n 19 bash fuzz/run.sh 3600   # long runs beside other work
 set -euo pipefail
 cd "$(dirname "$0")"
 seconds=${1:-60}
@@ -47,8 +48,12 @@ for t in "${targets[@]}"; do
   # AddressSanitizer, and 150 random points in a cube at the default node
   # limit take 1.4 s a run without it (the selection on a dense candidate
   # graph; fuzz/REPORT.md), 8 s in all with it, more on a loaded machine.
+  # FUZZ_TIMEOUT sets one limit for all: libFuzzer's limit is wall time, and
+  # a fuzzer started at a low priority on a busy machine can wait longer than
+  # that for the CPU (its timeouts then replay in a few seconds).
   limit=20
   if [ "$t" = reconstruct ]; then limit=60; fi
+  limit=${FUZZ_TIMEOUT:-$limit}
   "${fuzz[@]}" run "$t" "corpus/$t" "seeds/$t" -- \
     -max_total_time="$seconds" -timeout="$limit" -print_final_stats=1 >"$log" 2>&1 || status=$?
   took=$((SECONDS - start))
