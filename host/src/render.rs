@@ -154,6 +154,12 @@ pub const MAX_SIZE: u32 = 8192;
 /// the pixels of panels side by side (8192 × 8192; 11 bytes a sample).
 pub const MAX_SAMPLES: u64 = 1 << 26;
 
+/// The largest radius of an overlay dot, in pixels: a sixth of the default
+/// image's width. A dot costs its area in samples, so this bounds the time
+/// a point takes (at most about 13,000 pixels, times the supersampling
+/// squared).
+pub const MAX_POINT_RADIUS: f64 = 64.0;
+
 /// Checks a size and supersampling against [`MAX_SIZE`], 1 to 4 and
 /// [`MAX_SAMPLES`], before anything is allocated for them.
 pub fn check_size(width: u32, height: u32, supersample: u32) -> Result<(), RenderError> {
@@ -170,6 +176,15 @@ pub fn check_size(width: u32, height: u32, supersample: u32) -> Result<(), Rende
         });
     }
     Ok(())
+}
+
+/// Checks an overlay dots' radius against 0 to [`MAX_POINT_RADIUS`].
+pub fn check_point_radius(radius: f64) -> Result<(), RenderError> {
+    if (0.0..=MAX_POINT_RADIUS).contains(&radius) {
+        Ok(())
+    } else {
+        Err(RenderError::BadPointRadius { radius })
+    }
 }
 
 /// Colours.
@@ -208,6 +223,11 @@ pub enum RenderError {
         /// Vertices there are.
         vertices: usize,
     },
+    /// The overlay dots' radius is not 0 to [`MAX_POINT_RADIUS`] pixels.
+    BadPointRadius {
+        /// The radius asked for.
+        radius: f64,
+    },
     /// A vertex or point is NaN or infinite.
     NonFinite {
         /// `"vertex"` or `"point"`.
@@ -244,6 +264,10 @@ impl fmt::Display for RenderError {
             } => write!(
                 f,
                 "face {face} uses vertex {index}, but there are {vertices} vertices"
+            ),
+            RenderError::BadPointRadius { radius } => write!(
+                f,
+                "point radius {radius}: must be 0 to {MAX_POINT_RADIUS} pixels"
             ),
             RenderError::NonFinite { what, index } => {
                 write!(f, "{what} {index} has a coordinate that is not finite")
@@ -468,14 +492,22 @@ impl Target {
 
     /// A disc of radius `r` samples around `p`, drawn where at most `bias` behind.
     fn dot(&mut self, p: [f64; 3], r: f64, bias: f64, c: [u8; 3]) {
-        let ri = r.ceil() as isize;
         let (cx, cy) = (p[0] - 0.5, p[1] - 0.5);
-        if !(cx.is_finite() && cy.is_finite()) {
+        if !(cx.is_finite() && cy.is_finite() && r.is_finite()) {
             return;
         }
-        let (bx, by) = (cx.round() as isize, cy.round() as isize);
-        for y in by - ri..=by + ri {
-            for x in bx - ri..=bx + ri {
+        // Only the rows and columns of the target the dot's box meets: a dot
+        // far off screen costs nothing.
+        let (w, h) = (self.w as f64, self.h as f64);
+        let y0 = (cy - r).ceil().max(0.0);
+        let y1 = (cy + r).floor().min(h - 1.0);
+        let x0 = (cx - r).ceil().max(0.0);
+        let x1 = (cx + r).floor().min(w - 1.0);
+        if y0 > y1 || x0 > x1 {
+            return;
+        }
+        for y in y0 as isize..=y1 as isize {
+            for x in x0 as isize..=x1 as isize {
                 let (dx, dy) = (x as f64 - cx, y as f64 - cy);
                 if dx * dx + dy * dy <= r * r {
                     self.plot(x, y, p[2] + bias, c);
@@ -550,6 +582,7 @@ pub fn render_mesh(
 ) -> Result<Image, RenderError> {
     let ss = opts.supersample;
     check_size(opts.width, opts.height, ss)?;
+    check_point_radius(opts.point_radius)?;
     if triangles.is_empty() {
         return Err(RenderError::EmptyMesh {
             vertices: vertices.len(),
@@ -983,5 +1016,35 @@ mod tests {
             render_mesh(&v, &[[0, 1, 2]], None, &big),
             Err(RenderError::BadSize { .. })
         ));
+    }
+
+    #[test]
+    fn overlay_dots_are_bounded_and_clipped_to_the_image() {
+        let (v, t) = cube();
+        let plain = render_mesh(&v, &t, None, &RenderOptions::default()).unwrap();
+        // A radius past the limit, negative or NaN is refused, not drawn.
+        for radius in [MAX_POINT_RADIUS + 1.0, 100_000.0, -1.0, f64::NAN] {
+            let o = RenderOptions {
+                point_radius: radius,
+                ..RenderOptions::default()
+            };
+            let e = render_mesh(&v, &t, Some(&[[0.0; 3]]), &o).unwrap_err();
+            assert!(matches!(e, RenderError::BadPointRadius { .. }), "{e}");
+            assert!(e.to_string().contains("must be 0 to 64 pixels"), "{e}");
+        }
+        let wide = RenderOptions {
+            point_radius: MAX_POINT_RADIUS,
+            ..RenderOptions::default()
+        };
+        // A dot at a corner of the cube covers about a quarter disc there
+        // (its depth bias puts it in front of the faces it meets).
+        let corner = render_mesh(&v, &t, Some(&[[1.0, 1.0, 1.0]]), &wide).unwrap();
+        let red = corner.pixels.chunks(3).filter(|p| p == &POINT).count();
+        let disc = std::f64::consts::PI * MAX_POINT_RADIUS * MAX_POINT_RADIUS;
+        assert!(red as f64 > 0.2 * disc && (red as f64) < 1.05 * disc, "{red}");
+        // Points far outside the view draw nothing (and cost nothing).
+        let far = [[1e6, 1e6, 0.0], [-1e6, 0.0, 0.0], [0.0, -1e6, 1e6]];
+        let off = render_mesh(&v, &t, Some(&far), &wide).unwrap();
+        assert!(off.pixels == plain.pixels);
     }
 }

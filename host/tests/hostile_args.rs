@@ -392,3 +392,22 @@ fn render_checks_its_output_before_reading_any_mesh() {
         &["c.ply: -o names an input file"],
     );
 }
+
+#[test]
+fn a_huge_point_radius_is_refused_before_reading() {
+    // It used to paint every dot's whole square: 100000 pixels took 10
+    // minutes for a thousand points.
+    let d = dir("point_radius");
+    for radius in ["100000", "64.5", "nan", "inf"] {
+        let t = Instant::now();
+        let r = bin()
+            .args(["render", "m.ply", "-o", "x.png", "--point-radius", radius])
+            .current_dir(&d)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&r.stderr);
+        assert!(t.elapsed() < Duration::from_secs(20), "{radius}");
+        assert_eq!(r.status.code(), Some(2), "{radius}: {stderr}");
+        assert!(stderr.contains("must be 0 to 64 pixels"), "{stderr}");
+    }
+}

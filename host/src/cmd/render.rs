@@ -4,7 +4,8 @@
 use crate::io::{is_stdio, read_cloud, read_mesh, stage_to};
 use crate::outputs::check_targets;
 use crate::render::{
-    check_size, hstack, render_mesh, write_png, RenderOptions, Up, View, MAX_SAMPLES,
+    check_point_radius, check_size, hstack, render_mesh, write_png, RenderOptions, Up, View,
+    MAX_SAMPLES,
 };
 use crate::stdout;
 use clap::Args;
@@ -37,8 +38,9 @@ pub struct Cmd {
     /// Overlay this point cloud as red dots (depth-tested).
     #[arg(long)]
     pub points: Option<PathBuf>,
-    /// Radius of the overlay dots in pixels.
-    #[arg(long, default_value_t = RenderOptions::default().point_radius)]
+    /// Radius of the overlay dots in pixels, 0 to 64.
+    #[arg(long, default_value_t = RenderOptions::default().point_radius,
+          value_parser = parse_radius)]
     pub point_radius: f64,
     /// Mild perspective instead of an orthographic camera.
     #[arg(long)]
@@ -52,6 +54,15 @@ fn parse_size(s: &str) -> Result<(u32, u32), String> {
     let bad = || format!("size '{s}': expected WIDTHxHEIGHT, e.g. 800x600");
     let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
     Ok((w.parse().map_err(|_| bad())?, h.parse().map_err(|_| bad())?))
+}
+
+fn parse_radius(s: &str) -> Result<f64, String> {
+    let r: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("'{s}' is not a number of pixels"))?;
+    check_point_radius(r).map_err(|e| e.to_string())?;
+    Ok(r)
 }
 
 fn parse_view(s: &str) -> Result<View, String> {
