@@ -1041,7 +1041,10 @@ mod tests {
         let corner = render_mesh(&v, &t, Some(&[[1.0, 1.0, 1.0]]), &wide).unwrap();
         let red = corner.pixels.chunks(3).filter(|p| p == &POINT).count();
         let disc = std::f64::consts::PI * MAX_POINT_RADIUS * MAX_POINT_RADIUS;
-        assert!(red as f64 > 0.2 * disc && (red as f64) < 1.05 * disc, "{red}");
+        assert!(
+            red as f64 > 0.2 * disc && (red as f64) < 1.05 * disc,
+            "{red}"
+        );
         // Points far outside the view draw nothing (and cost nothing).
         let far = [[1e6, 1e6, 0.0], [-1e6, 0.0, 0.0], [0.0, -1e6, 1e6]];
         let off = render_mesh(&v, &t, Some(&far), &wide).unwrap();

@@ -717,7 +717,7 @@ impl MeshCheck {
             shape.join(", "),
             t.euler,
             genus.join(", "),
-            v.self_intersecting_pairs,
+            v.crossings_text(),
             v.coincident_vertices,
             v.folded_edges,
             t.degenerate_faces,

@@ -685,3 +685,39 @@ fn command_reports_validity_and_checks_the_expected_genus() {
         assert!(out.contains(needle), "'{needle}' not in:\n{out}");
     }
 }
+
+#[test]
+fn a_pile_of_copied_faces_is_judged_in_bounded_time_with_a_lower_bound() {
+    // 20,000 copies of one triangle: 2e8 intersecting pairs, which the exact
+    // test took about two minutes to count (10,000 copies took 30 s: quadratic
+    // in the pile); it stops at its limit and says so, and the mesh is not a
+    // valid solid.
+    let d = dir("pile");
+    let (pts, mesh) = (d.join("pts.xyz"), d.join("pile.off"));
+    write_xyz(&pts, &[[0.1, 0.1, 0.0], [0.5, 0.2, 0.0], [0.2, 0.6, 0.0]]);
+    let n = 20_000u32;
+    let v: Vec<[f64; 3]> = (0..n)
+        .flat_map(|_| [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+        .collect();
+    let f: Vec<[u32; 3]> = (0..n).map(|k| [3 * k, 3 * k + 1, 3 * k + 2]).collect();
+    write_off(&mesh, &(v, f));
+    let (code, out, err) = run(&[Path::new("--samples"), Path::new("100"), &pts, &mesh]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(
+        out.contains("or more (the test stopped at its limit: faces piled in one place)"),
+        "{out}"
+    );
+    assert!(out.contains("valid solid: no"), "{out}");
+    let (code, out, err) = run(&[
+        Path::new("--json"),
+        Path::new("--samples"),
+        Path::new("100"),
+        &pts,
+        &mesh,
+    ]);
+    assert_eq!(code, Some(0), "{err}");
+    let json: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let v = &json["validity"];
+    assert_eq!(v["self_intersection_stopped"], true, "{out}");
+    assert!(v["self_intersecting_pairs"].as_u64().unwrap() >= 2_000_000);
+}

@@ -181,7 +181,7 @@ impl EvalReport {
             t.duplicate_faces,
             t.invalid_faces,
             yes(t.is_closed_manifold()),
-            v.self_intersecting_pairs,
+            v.crossings_text(),
             v.coincident_vertices,
             v.folded_edges,
             v.bubbles,

@@ -112,11 +112,15 @@ impl Grid {
     /// Calls `f(i, j)`, `i < j`, exactly once for every pair of items whose (closed)
     /// boxes overlap: in the cell holding the lower corner of the two boxes'
     /// intersection, which both boxes cover. O(sum over cells of items²).
+    /// Stops early, returning `false`, once `f` returns `false` or more than
+    /// `limit` pairs of items sharing a cell have been looked at.
     pub(super) fn overlapping_pairs(
         &self,
         boxes: &[([f64; 3], [f64; 3])],
-        mut f: impl FnMut(u32, u32),
-    ) {
+        limit: u64,
+        mut f: impl FnMut(u32, u32) -> bool,
+    ) -> bool {
+        let mut looked = 0u64;
         for z in 0..self.dims[2] {
             for y in 0..self.dims[1] {
                 for x in 0..self.dims[0] {
@@ -125,17 +129,25 @@ impl Grid {
                     for (k, &i) in items.iter().enumerate() {
                         let a = &boxes[i as usize];
                         for &j in &items[k + 1..] {
+                            looked += 1;
+                            if looked > limit {
+                                return false;
+                            }
                             let b = &boxes[j as usize];
                             let overlap = (0..3).all(|c| a.0[c] <= b.1[c] && b.0[c] <= a.1[c]);
                             let corner = [0, 1, 2].map(|c| a.0[c].max(b.0[c]));
-                            if overlap && self.cell_of(corner) == [x, y, z] {
-                                f(i.min(j), i.max(j));
+                            if overlap
+                                && self.cell_of(corner) == [x, y, z]
+                                && !f(i.min(j), i.max(j))
+                            {
+                                return false;
                             }
                         }
                     }
                 }
             }
         }
+        true
     }
 
     /// Squared distance from `p` to the box of cell `c`.

@@ -24,18 +24,51 @@ type P = [f64; 3];
 /// Cells per face at most in the candidate grid (4 bytes each).
 const CELLS_PER_FACE: f64 = 16.0;
 
+/// Pairs of faces sharing a grid cell that the test looks at at most, per
+/// face (plus [`LOOKED_FLOOR`]): a face-sized grid over a mesh holds a few
+/// faces a cell, while a pile of faces in one place (copies of one triangle)
+/// would make the test quadratic in the pile.
+const LOOKED_PER_FACE: u64 = 4096;
+/// Pairs of faces with overlapping boxes the test decides exactly at most,
+/// per face (plus [`TESTED_FLOOR`]). Meshes need 7-8 a face: the 40 meshes
+/// of the shared clouds at most 7.85, Open3D's ball-pivoting and Poisson
+/// bunnies 6.8, a 300 x 300 grid of a wavy surface 7.4 (`bench/notes.md`).
+/// 100,000 copies of one triangle stop after about 7.4 M tests, 6 s (10,000
+/// copies took 30 s before the limit).
+const TESTED_PER_FACE: u64 = 64;
+const LOOKED_FLOOR: u64 = 1 << 24;
+const TESTED_FLOOR: u64 = 1 << 20;
+
+/// How many pairs of faces intersect, and whether all were tested.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Crossings {
+    /// Intersecting pairs found.
+    pub pairs: usize,
+    /// Whether every candidate pair was tested: when `false`, the test
+    /// stopped at its limits (a pile of faces in one place) and `pairs` is a
+    /// lower bound.
+    pub complete: bool,
+}
+
 /// The number of pairs of `faces` (indices all `< vertices.len()`) that intersect
 /// ([`faces_intersect`]). Faces with a repeated index, a non-finite coordinate or zero
-/// area (counted as degenerate by the topology) are left out.
-pub fn self_intersecting_pairs(vertices: &[P], faces: &[[u32; 3]]) -> usize {
-    let mut n = 0;
-    for_each_intersecting_pair(vertices, faces, |_, _| n += 1);
-    n
+/// area (counted as degenerate by the topology) are left out. The test stops
+/// after [`LOOKED_PER_FACE`] pairs sharing a grid cell or [`TESTED_PER_FACE`]
+/// exact tests a face (`complete` false).
+pub fn self_intersecting_pairs(vertices: &[P], faces: &[[u32; 3]]) -> Crossings {
+    let mut pairs = 0;
+    let complete = for_each_intersecting_pair(vertices, faces, |_, _| pairs += 1);
+    Crossings { pairs, complete }
 }
 
 /// Calls `f(i, j)`, `i < j` indices into `faces`, once for every intersecting pair,
-/// as [`self_intersecting_pairs`] counts them.
-fn for_each_intersecting_pair(vertices: &[P], faces: &[[u32; 3]], mut f: impl FnMut(u32, u32)) {
+/// as [`self_intersecting_pairs`] counts them; `false` when it stopped at its
+/// limits.
+fn for_each_intersecting_pair(
+    vertices: &[P],
+    faces: &[[u32; 3]],
+    mut f: impl FnMut(u32, u32),
+) -> bool {
     let tested: Vec<u32> = (0..faces.len() as u32)
         .filter(|&i| {
             let g = faces[i as usize];
@@ -48,7 +81,7 @@ fn for_each_intersecting_pair(vertices: &[P], faces: &[[u32; 3]], mut f: impl Fn
         })
         .collect();
     if tested.len() < 2 {
-        return;
+        return true;
     }
     let tris: Vec<[P; 3]> = tested
         .iter()
@@ -56,13 +89,20 @@ fn for_each_intersecting_pair(vertices: &[P], faces: &[[u32; 3]], mut f: impl Fn
         .collect();
     let boxes: Vec<(P, P)> = tris.iter().map(|t| bounds(t.iter().copied())).collect();
     let grid = Grid::build(&boxes, face_sized_cells(&boxes));
-    grid.overlapping_pairs(&boxes, |a, b| {
+    let n = tested.len() as u64;
+    let mut left = TESTED_PER_FACE * n + TESTED_FLOOR;
+    grid.overlapping_pairs(&boxes, LOOKED_PER_FACE * n + LOOKED_FLOOR, |a, b| {
+        if left == 0 {
+            return false;
+        }
+        left -= 1;
         let (a, b) = (a as usize, b as usize);
         let (i, j) = (tested[a], tested[b]);
         if faces_intersect(faces[i as usize], &tris[a], faces[j as usize], &tris[b]) {
             f(i, j);
         }
-    });
+        true
+    })
 }
 
 /// A cell count whose cells are about as wide as the average box, at most
@@ -161,8 +201,36 @@ mod tests {
             got.sort_unstable();
             assert!(want.len() > 50, "{}", want.len());
             assert_eq!(got, want);
-            assert_eq!(self_intersecting_pairs(&v, &f), want.len());
+            let all = Crossings {
+                pairs: want.len(),
+                complete: true,
+            };
+            assert_eq!(self_intersecting_pairs(&v, &f), all);
         }
+    }
+
+    #[test]
+    fn a_pile_of_copies_stops_the_test_with_a_lower_bound() {
+        // 3,000 copies of one triangle: 4.5 M intersecting pairs, more than
+        // the test decides for 3,000 faces (64 a face and 1 M).
+        let n = 3000u32;
+        let v: Vec<P> = (0..n)
+            .flat_map(|_| [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+            .collect();
+        let f: Vec<[u32; 3]> = (0..n).map(|k| [3 * k, 3 * k + 1, 3 * k + 2]).collect();
+        let c = self_intersecting_pairs(&v, &f);
+        assert!(!c.complete);
+        let limit = (TESTED_PER_FACE * u64::from(n) + TESTED_FLOOR) as usize;
+        assert_eq!(c.pairs, limit);
+        // 300 copies (44,850 pairs) are counted in full.
+        let c = self_intersecting_pairs(&v[..900], &f[..300]);
+        assert_eq!(
+            c,
+            Crossings {
+                pairs: 300 * 299 / 2,
+                complete: true
+            }
+        );
     }
 
     #[test]
@@ -176,6 +244,6 @@ mod tests {
             [0.2, 0.2, 0.0],
         ];
         let f = [[0, 1, 2], [0, 3, 1], [0, 4, 5], [5, 5, 1]];
-        assert_eq!(self_intersecting_pairs(&v, &f), 0);
+        assert_eq!(self_intersecting_pairs(&v, &f).pairs, 0);
     }
 }

@@ -145,6 +145,11 @@ pub struct Validity {
     /// they share by index (core's `faces_intersect`); exact. Touching counts, so does a
     /// vertex of one at the position of a vertex of the other with another index.
     pub self_intersecting_pairs: usize,
+    /// Whether the self-intersection test stopped at its limits (faces piled
+    /// in one place, such as many copies of a triangle) before testing every
+    /// candidate pair: `self_intersecting_pairs` is then a lower bound, and
+    /// the mesh is not taken for a valid solid.
+    pub self_intersection_stopped: bool,
     /// Vertices of proper faces at exactly the position of another such vertex,
     /// counting all but one per position.
     pub coincident_vertices: usize,
@@ -165,6 +170,19 @@ pub struct Validity {
 }
 
 impl Validity {
+    /// The count of self-intersecting pairs for a report: the number, or
+    /// "N or more" when the test stopped at its limits.
+    pub fn crossings_text(&self) -> String {
+        if self.self_intersection_stopped {
+            format!(
+                "{} or more (the test stopped at its limit: faces piled in one place)",
+                self.self_intersecting_pairs
+            )
+        } else {
+            self.self_intersecting_pairs.to_string()
+        }
+    }
+
     /// The sum of [`Validity::genus`]: the handles of the closed components.
     pub fn handles(&self) -> u64 {
         self.genus.iter().map(|&g| u64::from(g)).sum()
@@ -268,6 +286,7 @@ fn sound(t: &Topology, v: &Validity) -> bool {
         && t.duplicate_faces == 0
         && t.invalid_faces == 0
         && v.self_intersecting_pairs == 0
+        && !v.self_intersection_stopped
         && v.coincident_vertices == 0
         && v.folded_edges == 0
         && v.bubbles == 0

@@ -24,8 +24,10 @@ pub(super) fn validity(vertices: &[[f64; 3]], faces: &[[u32; 3]], surface: &Surf
         .collect();
     let mut by_size: Vec<_> = surface.components.iter().collect();
     by_size.sort_by_key(|c| std::cmp::Reverse(c.faces));
+    let crossings = self_intersecting_pairs(vertices, faces);
     Validity {
-        self_intersecting_pairs: self_intersecting_pairs(vertices, faces),
+        self_intersecting_pairs: crossings.pairs,
+        self_intersection_stopped: !crossings.complete,
         coincident_vertices: coincident_vertices(vertices, faces),
         folded_edges: surface.folded_edges,
         bubbles: bubbles.len(),
