@@ -7,7 +7,7 @@
 //! written in place, so only its existence is checked.
 
 use crate::io::is_stdio;
-use crate::io::write::create_scratch;
+use crate::io::write::{create_scratch, parent_dir};
 use std::fs;
 use std::io;
 use std::path::{Path, PathBuf};
@@ -85,15 +85,7 @@ fn same_file(a: &Path, b: &Path) -> bool {
 fn resolved(p: &Path) -> Option<PathBuf> {
     fs::canonicalize(p)
         .ok()
-        .or_else(|| Some(fs::canonicalize(directory(p)).ok()?.join(p.file_name()?)))
-}
-
-/// The directory `p` is in (`.` for a bare name).
-fn directory(p: &Path) -> &Path {
-    match p.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    }
+        .or_else(|| Some(fs::canonicalize(parent_dir(p)).ok()?.join(p.file_name()?)))
 }
 
 /// Whether `path` (given as `flag`) can be written as `write_atomic` writes
@@ -118,7 +110,7 @@ fn writable(flag: &str, path: &Path) -> Result<(), String> {
     if target.file_name().is_none() {
         return Err(format!("{shown}: {flag} needs a file name"));
     }
-    let dir = directory(&target);
+    let dir = parent_dir(&target);
     match fs::metadata(dir) {
         Ok(m) if m.is_dir() => {}
         Ok(_) => return Err(format!("{shown}: {} is not a directory", dir.display())),
