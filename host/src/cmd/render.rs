@@ -7,7 +7,7 @@ use crate::render::{
     check_point_radius, check_size, hstack, render_mesh, write_png, RenderOptions, Up, View,
     MAX_SAMPLES,
 };
-use crate::stdout;
+use crate::report::publish;
 use clap::Args;
 use std::path::{Path, PathBuf};
 
@@ -163,12 +163,7 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
             img.height
         )
     };
-    if is_stdio(&cmd.output) {
-        stdout::eprint(&done)?;
-    } else {
-        // The file is put in place only once its line is printed, so a
-        // failed run leaves no file.
-        stdout::print(&done)?;
-    }
-    staged.commit().map_err(|e| e.to_string())
+    // As the other commands' reports: the line goes to stderr when the PNG
+    // is on stdout, and the file is put in place only once the line is out.
+    publish(&done, &cmd.output, staged, None, || Ok(String::new()))
 }
