@@ -54,13 +54,21 @@ fn run(args: &[&str], sink: Sink, on_stdout: bool) -> (Option<i32>, String) {
     (r.status.code(), String::from_utf8_lossy(other).into_owned())
 }
 
-#[test]
-fn no_command_panics_when_stdout_or_stderr_cannot_be_written() {
+/// A fresh directory `name` for a test, or `None` (the test skipped, said
+/// on stderr) on a system without `/dev/full`.
+fn dir_if_dev_full(name: &str) -> Option<std::path::PathBuf> {
     if !Path::new("/dev/full").exists() {
         eprintln!("skipped: no /dev/full");
-        return;
+        return None;
     }
-    let d = common::dir("closed_streams", "all");
+    Some(common::dir("closed_streams", name))
+}
+
+#[test]
+fn no_command_panics_when_stdout_or_stderr_cannot_be_written() {
+    let Some(d) = dir_if_dev_full("all") else {
+        return;
+    };
     let at = |name: &str| d.join(name).to_str().unwrap().to_string();
     let (mesh, cloud, png, pages) = (at("m.ply"), at("c.ply"), at("r.png"), at("man"));
     std::fs::create_dir(&pages).unwrap();
@@ -139,11 +147,9 @@ fn no_command_panics_when_stdout_or_stderr_cannot_be_written() {
 /// its content.
 #[test]
 fn a_run_that_cannot_print_its_report_leaves_no_file() {
-    if !Path::new("/dev/full").exists() {
-        eprintln!("skipped: no /dev/full");
+    let Some(d) = dir_if_dev_full("no_file") else {
         return;
-    }
-    let d = common::dir("closed_streams", "no_file");
+    };
     let at = |name: &str| d.join(name).to_str().unwrap().to_string();
     let (mesh, cloud, json, png, kept) = (
         at("m.ply"),
