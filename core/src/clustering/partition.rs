@@ -22,8 +22,9 @@
 //!   ([`Quadric::minimizer`]). The next seed of a cluster is its member of least
 //!   cost to the new generator.
 //!
-//! Memory: labels 4 B and heap 8 B per point (the heap is scratch), plus
-//! O(clusters). Cost per pass: O(n k log n).
+//! Memory: labels 4 B per point, plus O(clusters); a partition's scratch is
+//! 32 B per point (guessed costs 16, heap 8, tentative cost and rival 8).
+//! Cost per pass: O(n k log n).
 
 use crate::arena::{padded_bytes, Arena, Scratch};
 use crate::clustering::knn::Neighbours;
@@ -152,10 +153,11 @@ impl<'p, 'a> Ctx<'p, 'a> {
 /// backups for undoing a splitting batch (32 per cluster of the cap); with
 /// sweeps also the border flags and the labels' backup (5 per point). Scratch:
 /// the largest of one step's, each in a scope of its own: the components (4 per
-/// point), the initial seeds (9 per point), a partition (16 per point: cost,
-/// rival, heap; sweeps: label and cost, stamps, a search, 19 per point and
-/// 9 per cluster), a generator update (member lists: 4 per point, 8 per
-/// cluster), a splitting batch
+/// point), the initial seeds (9 per point), a partition (32 per point: costs
+/// guessed, cost, rival, heap; sweeps: label and cost, stamps, a search, 19
+/// per point and 9 per cluster), a generator update (member lists: 4 per point, 8 per
+/// cluster; region growing's passes keep 4 per point across an update and a
+/// partition), a splitting batch
 /// ([`split::split_bytes`]) and a refinement ([`ClusterState::refine`], 9 per
 /// cluster, then a partition). Keep in step with the functions named.
 pub fn partition_bytes(n: usize, cap: usize, sweeps: bool) -> (usize, usize) {
@@ -178,6 +180,7 @@ pub fn partition_bytes(n: usize, cap: usize, sweeps: bool) -> (usize, usize) {
         sweep::partition_bytes(n, cap)
     } else {
         sum(&[
+            padded_bytes::<(u32, f32)>(n.saturating_mul(GUESSES)),
             padded_bytes::<f32>(n),
             padded_bytes::<u32>(n),
             padded_bytes::<u64>(n),
@@ -189,9 +192,11 @@ pub fn partition_bytes(n: usize, cap: usize, sweeps: bool) -> (usize, usize) {
         padded_bytes::<u32>(cap),                   // cursor
     ]);
     let refine = sum(&[padded_bytes::<(f32, u32)>(cap), padded_bytes::<bool>(cap)]);
+    // Region growing's passes keep each point's cost to its generator across
+    // the update and the partition.
+    let own = if sweeps { 0 } else { padded_bytes::<f32>(n) };
     let scratch = seeds
-        .max(partition)
-        .max(update)
+        .max(own.saturating_add(partition.max(update)))
         .max(split::split_bytes(n, cap))
         .max(refine);
     (kept, scratch)
@@ -457,7 +462,16 @@ impl<'a> ClusterState<'a> {
             sweeps: self.sweeps,
         };
         let total = &mut self.stats.energy;
-        repartition(arena, ctx, &mut st, grown, Start::Warm, total, &*progress)?;
+        repartition(
+            arena,
+            ctx,
+            &mut st,
+            grown,
+            Start::Warm,
+            None,
+            total,
+            &*progress,
+        )?;
         if let Some(params) = params {
             let planned = self.stats.passes + params.split_iterations.max(1);
             passes(
@@ -539,7 +553,16 @@ pub fn try_cluster_state_in<'a>(
         sweeps,
     };
     let total = &mut stats.energy;
-    repartition(arena, &ctx, &mut st, m, Start::Fresh, total, &*progress)?;
+    repartition(
+        arena,
+        &ctx,
+        &mut st,
+        m,
+        Start::Fresh,
+        None,
+        total,
+        &*progress,
+    )?;
     let pass = |st: &mut State,
                 m: usize,
                 count: u32,
@@ -582,7 +605,16 @@ pub fn try_cluster_state_in<'a>(
             }
             let grown = m + added;
             let total = &mut stats.energy;
-            repartition(arena, &ctx, &mut st, grown, Start::Warm, total, &*progress)?;
+            repartition(
+                arena,
+                &ctx,
+                &mut st,
+                grown,
+                Start::Warm,
+                None,
+                total,
+                &*progress,
+            )?;
             if relax {
                 pass(
                     &mut st,
@@ -618,7 +650,16 @@ pub fn try_cluster_state_in<'a>(
                     st.border.fill(1);
                 } else {
                     let total = &mut stats.energy;
-                    repartition(arena, &ctx, &mut st, m, Start::Warm, total, &*progress)?;
+                    repartition(
+                        arena,
+                        &ctx,
+                        &mut st,
+                        m,
+                        Start::Warm,
+                        None,
+                        total,
+                        &*progress,
+                    )?;
                 }
                 stats.rejected_batches += 1;
                 if relax {
@@ -675,12 +716,14 @@ struct State<'x> {
 /// `arena`): by sweeps from `start`, or by region growing (always from the
 /// seeds alone), which also sets `energy` (sweeps leave it to [`energy`],
 /// once at the end: it would cost a pass over the points).
+#[allow(clippy::too_many_arguments)]
 fn repartition(
     arena: &Arena,
     ctx: &Ctx,
     st: &mut State,
     m: usize,
     start: Start,
+    own: Option<&[f32]>,
     energy: &mut f64,
     hooks: &dyn Progress,
 ) -> Result<()> {
@@ -689,7 +732,7 @@ fn repartition(
         if st.sweeps {
             sweep::partition(s, ctx, g, s_, st.labels, st.border, start, hooks)
         } else {
-            *energy = partition(s, ctx, g, s_, st.labels)?;
+            *energy = partition(s, ctx, g, s_, st.labels, start, own, hooks)?;
             Ok(())
         }
     })
@@ -720,39 +763,47 @@ fn passes(
     planned: u32,
 ) -> Result<()> {
     stats.converged = false;
-    for _ in 0..count.max(1) {
-        let moved = arena.scratch(|s| {
-            update(
-                s,
+    // Region growing: each point's cost to its cluster's new generator, which
+    // the update computes to pick the seeds and the partition looks up.
+    arena.scratch(|outer| {
+        let own = outer.try_alloc_slice::<f32>(if st.sweeps { 0 } else { st.labels.len() }, 0.0)?;
+        for _ in 0..count.max(1) {
+            let moved = arena.scratch(|s| {
+                update(
+                    s,
+                    ctx,
+                    st.labels,
+                    &mut st.generators[..m],
+                    &mut st.seeds[..m],
+                    own,
+                    &*progress,
+                )
+            })?;
+            stats.passes += 1;
+            tick(
+                progress,
+                Stage::Clustering,
+                stats.passes as u64,
+                planned as u64,
+            )?;
+            if !moved {
+                stats.converged = true;
+                break;
+            }
+            let own = Some(&*own).filter(|o| !o.is_empty());
+            repartition(
+                arena,
                 ctx,
-                st.labels,
-                &mut st.generators[..m],
-                &mut st.seeds[..m],
+                st,
+                m,
+                Start::Warm,
+                own,
+                &mut stats.energy,
                 &*progress,
-            )
-        })?;
-        stats.passes += 1;
-        tick(
-            progress,
-            Stage::Clustering,
-            stats.passes as u64,
-            planned as u64,
-        )?;
-        if !moved {
-            stats.converged = true;
-            break;
+            )?;
         }
-        repartition(
-            arena,
-            ctx,
-            st,
-            m,
-            Start::Warm,
-            &mut stats.energy,
-            &*progress,
-        )?;
-    }
-    Ok(())
+        Ok(())
+    })
 }
 
 fn relative(err2: f32, diag: f32) -> f32 {
@@ -928,17 +979,55 @@ fn key(cost: f32, point: u32) -> u64 {
     (bits as u64) << 32 | point as u64
 }
 
+/// Clusters of each point costed ahead of region growing, [`GUESSES`] a point.
+const GUESSES: usize = 2;
+
 /// Region growing from `seeds` (seed Eq. 4). Returns the total energy.
+///
+/// With `start` [`Start::Warm`], `labels` holds the last partition, and the
+/// costs region growing will most likely ask for are computed first, in
+/// parallel tasks over ranges of points: each point's cost to its own last
+/// cluster (`own[p]` when given, as [`update`] leaves it) and to the first
+/// other cluster among its neighbours' last labels. The growth then looks them
+/// up instead of computing them; a cost is the same function of the same point
+/// and generator either way, so the partition does not depend on what was
+/// guessed.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn partition(
     s: &Scratch,
     ctx: &Ctx,
     generators: &[V3],
     seeds: &[u32],
     labels: &mut [u32],
+    start: Start,
+    own: Option<&[f32]>,
+    hooks: &dyn Progress,
 ) -> Result<f64> {
     let n = labels.len();
+    let warm = start == Start::Warm;
+    let guess = s.try_alloc_slice::<(u32, f32)>(if warm { GUESSES * n } else { 0 }, (NONE, 0.0))?;
+    if warm {
+        let last = &*labels;
+        parallel::rows(hooks, guess, GUESSES, |points, rows: &mut [(u32, f32)]| {
+            for (p, row) in points.zip(rows.chunks_exact_mut(GUESSES)) {
+                let mine = last[p];
+                let other = ctx
+                    .nb
+                    .symmetric(p)
+                    .map(|q| last[q as usize])
+                    .find(|&l| l != mine);
+                for (k, (slot, l)) in row.iter_mut().zip([Some(mine), other]).enumerate() {
+                    if let Some((l, &c)) = l.and_then(|l| Some((l, generators.get(l as usize)?))) {
+                        let known = own.and_then(|o| o.get(p)).filter(|_| k == 0);
+                        *slot = (l, known.copied().unwrap_or_else(|| ctx.cost(p, c)));
+                    }
+                }
+            }
+        });
+    }
     labels.fill(NONE);
     let mut f = Front {
+        guess,
         labels,
         // Cost of each point's tentative label, so a rival cluster is compared
         // without recomputing it.
@@ -987,6 +1076,8 @@ pub(crate) fn partition(
 /// The growing front of a partition: labels (with the final bit), the tentative
 /// cost and last rival of each point, and the heap.
 struct Front<'s, 'l> {
+    /// [`GUESSES`] `(cluster, cost)` a point, computed ahead (empty when cold).
+    guess: &'s [(u32, f32)],
     labels: &'l mut [u32],
     best: &'s mut [f32],
     tried: &'s mut [u32],
@@ -1004,6 +1095,7 @@ fn grow_from(ctx: &Ctx, generators: &[V3], f: &mut Front, q: usize, cost: f32) -
         crate::hint::prefetch(ctx.nb.knn.as_ptr().wrapping_add(nbr as usize * ctx.nb.k));
         crate::hint::prefetch(f.labels.as_ptr().wrapping_add(nbr as usize));
         crate::hint::prefetch(f.tried.as_ptr().wrapping_add(nbr as usize));
+        crate::hint::prefetch(f.guess.as_ptr().wrapping_add(nbr as usize * GUESSES));
         crate::hint::prefetch(ctx.planes.planes.as_ptr().wrapping_add(nbr as usize));
     }
     for nbr in ctx.nb.symmetric(q) {
@@ -1012,7 +1104,13 @@ fn grow_from(ctx: &Ctx, generators: &[V3], f: &mut Front, q: usize, cost: f32) -
             continue;
         }
         f.tried[nbr as usize] = label;
-        let e = ctx.cost(nbr as usize, c);
+        let guessed = f
+            .guess
+            .get(nbr as usize * GUESSES..(nbr as usize + 1) * GUESSES);
+        let e = match guessed.and_then(|g| g.iter().find(|&&(l, _)| l == label)) {
+            Some(&(_, e)) => e,
+            None => ctx.cost(nbr as usize, c),
+        };
         if t == NONE || e < f.best[nbr as usize] {
             f.labels[nbr as usize] = label;
             f.best[nbr as usize] = e;
@@ -1034,13 +1132,17 @@ fn grow_from(ctx: &Ctx, generators: &[V3], f: &mut Front, q: usize, cost: f32) -
 /// Recompute every generator as its cluster's QEM optimum and pick the next seeds.
 /// Returns whether any generator moved. Clusters are independent: parallel
 /// tasks over ranges of clusters, each summing its members in point order (the
-/// sums of a serial pass over the points, bit for bit).
+/// sums of a serial pass over the points, bit for bit). When `own` has a slot
+/// per point, it is left holding each point's cost to its cluster's new
+/// generator (infinite for a point in none of the clusters), computed in
+/// parallel tasks over ranges of points.
 pub(crate) fn update(
     s: &Scratch,
     ctx: &Ctx,
     labels: &[u32],
     generators: &mut [V3],
     seeds: &mut [u32],
+    own: &mut [f32],
     hooks: &dyn Progress,
 ) -> Result<bool> {
     let m = generators.len();
@@ -1076,11 +1178,24 @@ pub(crate) fn update(
     });
     // Next seeds: the member of least cost to the new generator, ties by index.
     let generators = &*generators;
+    if own.len() == labels.len() {
+        parallel::rows(hooks, own, 1, |points, out: &mut [f32]| {
+            for (p, e) in points.zip(out.iter_mut()) {
+                *e = generators
+                    .get(labels[p] as usize)
+                    .map_or(f32::INFINITY, |&g| ctx.cost(p, g));
+            }
+        });
+    }
+    let own = &*own;
     parallel::rows(hooks, seeds, 1, |clusters, out: &mut [u32]| {
         for (j, seed) in clusters.zip(out.iter_mut()) {
             let mut best = f32::INFINITY;
             for &i in of(j) {
-                let e = ctx.cost(i as usize, generators[j]);
+                let e = match own.get(i as usize) {
+                    Some(&e) => e,
+                    None => ctx.cost(i as usize, generators[j]),
+                };
                 if e < best || (best == f32::INFINITY && e == f32::INFINITY) {
                     best = e;
                     *seed = i;
@@ -1169,7 +1284,18 @@ mod tests {
         }
         let ctx = Ctx::new(&points, &nb, &planes, &params);
         arena
-            .scratch(|s| partition(s, &ctx, &generators[..m], &seeds[..m], labels))
+            .scratch(|s| {
+                partition(
+                    s,
+                    &ctx,
+                    &generators[..m],
+                    &seeds[..m],
+                    labels,
+                    Start::Fresh,
+                    None,
+                    &crate::progress::Silent,
+                )
+            })
             .unwrap();
         let alone = labels.iter().filter(|&&l| l == 0).count();
         assert_eq!(alone, 1, "p is not alone in its cluster");
