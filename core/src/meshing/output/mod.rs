@@ -52,7 +52,7 @@ use holes::{fill_holes, Filled};
 use insert::insert_skipped;
 use orient::orient;
 use repair::{
-    corner_fans, drop_bubbles, join_bubbles, mark_pinches, mark_tangles, neck_pinches,
+    corner_fans, drop_bubbles, join_pieces, mark_pinches, mark_tangles, neck_pinches,
     retain_unmarked,
 };
 
@@ -80,7 +80,7 @@ pub struct MeshStats {
     /// after repair (0 is the aim: a valid solid).
     pub tangled_pairs: u32,
     /// Thin parts joined to the surface (instead of cut out or dropped): by
-    /// a neck at a pinch, or by a tube from a bubble.
+    /// a neck at a pinch, or by a tube from a closed piece.
     pub necks: u32,
     /// Extra vertices made to separate fans at non-manifold generators that
     /// pinch repair left (at the same position as the first: 0 is the aim).
@@ -395,9 +395,10 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             }
             Ok(retain_unmarked(faces, nf, stray))
         })?;
-        // Small closed pieces beside a large surface (bubbles, mostly tips of
-        // thin parts) are joined to it by a tube where one fits, else dropped
-        // and their clusters inserted into the surface like any other.
+        // Closed pieces beside the largest (mostly tips of thin parts) are
+        // joined to the rest by a tube where one fits; small ones (bubbles)
+        // that none fits are dropped and their clusters inserted into the
+        // surface like any other.
         // Faces repair adds (tubes, inserted clusters) join only clusters of
         // one piece of the data: a scan's separate pieces (an ear tip, a paw
         // seen apart from the body) are not joined across the empty space
@@ -407,7 +408,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             f.iter()
                 .all(|t| of(t[0]) == of(t[1]) && of(t[1]) == of(t[2]))
         };
-        let (nf, tubes) = join_bubbles(s, faces, nf, fill_end, generators, tol, &one_piece)?;
+        let (nf, tubes) = join_pieces(s, faces, nf, fill_end, generators, tol, &one_piece)?;
         let (nf, bubbles, components) = drop_bubbles(s, faces, nf)?;
         // Clusters the selection skipped go into the mesh.
         let (nf, inserted) = insert_skipped(s, faces, nf, generators, members, tol, &one_piece)?;

@@ -97,13 +97,17 @@ pub(super) fn corner_fans<'t, 'b, S: Alloc<'b>>(
     Ok(fans.into_roots())
 }
 
-/// The edge-connected pieces of a face list and which of them are bubbles
-/// (see [`drop_bubbles`]).
+/// The edge-connected pieces of a face list, which of them are bubbles (see
+/// [`drop_bubbles`]) and which are closed apart from the largest (see
+/// [`join_pieces`]).
 struct Pieces<'t> {
     /// Per face, its piece's root (the piece's lowest face).
     root: &'t [u32],
     /// Per root, whether its piece is a bubble.
     bubble: &'t [bool],
+    /// Per root, whether its piece is closed and not the largest (ties: the
+    /// lowest root is the largest).
+    detached: &'t [bool],
 }
 
 impl<'t> Pieces<'t> {
@@ -134,12 +138,19 @@ impl<'t> Pieces<'t> {
             closed[r] &= !open[f];
         }
         let largest = size.iter().copied().max().unwrap_or(0) as usize;
+        let first_largest = size.iter().position(|&n| n as usize == largest);
         let bubble = t.try_alloc_slice::<bool>(nf, false)?;
-        for (r, b) in bubble.iter_mut().enumerate() {
+        let detached = t.try_alloc_slice::<bool>(nf, false)?;
+        for r in 0..nf {
             let n = size[r] as usize;
-            *b = closed[r] && n < BUBBLE_FACES && n * BUBBLE_RATIO <= largest;
+            bubble[r] = closed[r] && n < BUBBLE_FACES && n * BUBBLE_RATIO <= largest;
+            detached[r] = closed[r] && n > 0 && Some(r) != first_largest;
         }
-        Ok(Pieces { root, bubble })
+        Ok(Pieces {
+            root,
+            bubble,
+            detached,
+        })
     }
 }
 
@@ -154,7 +165,7 @@ pub(super) fn drop_bubbles<'b, S: Alloc<'b>>(
     nf: usize,
 ) -> Result<(usize, u32, u32)> {
     s.scratch(|t| {
-        let Pieces { root, bubble } = Pieces::try_new_in(t, &faces[..nf])?;
+        let Pieces { root, bubble, .. } = Pieces::try_new_in(t, &faces[..nf])?;
         let bubble = |r: usize| bubble[r];
         let pieces = |drop: bool| {
             (0..nf)
@@ -173,20 +184,23 @@ pub(super) fn drop_bubbles<'b, S: Alloc<'b>>(
     })
 }
 
-/// Joins each bubble (see [`drop_bubbles`]) to the rest of the surface by a
-/// tube, where one fits: a face of the bubble and a face of another piece that
+/// Joins each closed piece but the largest to the rest of the surface by a
+/// tube, where one fits: a face of the piece and a face of another piece that
 /// face each other go, and six faces join the two triangular holes (corners
-/// paired so the tube twists least). The bubble is most often the tip of a
-/// thin part the selection closed on itself; joined, the tip stays in the mesh
-/// and the surface keeps its genus (one tube between two pieces makes no
-/// handle). Of each bubble's facing pairs the eight nearest are tried; a tube
+/// paired so the tube twists least). Such a piece is most often the tip of a
+/// thin part, which the selection closed on itself (then a bubble, see
+/// [`drop_bubbles`]) or which repair cut off where it cut out crossing faces
+/// and closed both sides of the cut, of any size (the horse's leg tip at 250
+/// clusters by sweeps, 42 faces); joined, the tip stays in the mesh and the
+/// surface keeps its genus (one tube between two pieces makes no handle).
+/// Of each piece's facing pairs the eight nearest are tried; a tube
 /// is made only when it shares no vertex with either face's other corners, its
 /// faces are not degenerate, it crosses or folds onto nothing ([`untangled`])
 /// and `joins` takes its faces (not when it would join one piece of the data
 /// to another across the empty space between them). Faces are appended from
 /// `nf` while room is left below `cap`. Returns the face count and the tubes
-/// made. O(B F) per bubble of B faces.
-pub(super) fn join_bubbles<'b, S: Alloc<'b>>(
+/// made. O(B F) per piece of B faces.
+pub(super) fn join_pieces<'b, S: Alloc<'b>>(
     s: &S,
     faces: &mut [[u32; 3]],
     nf: usize,
@@ -196,8 +210,7 @@ pub(super) fn join_bubbles<'b, S: Alloc<'b>>(
     joins: &dyn Fn(&[[u32; 3]]) -> bool,
 ) -> Result<(usize, u32)> {
     s.scratch(|t| {
-        let Pieces { root, bubble } = Pieces::try_new_in(t, &faces[..nf])?;
-        let bubble = |r: usize| bubble[r];
+        let Pieces { root, detached, .. } = Pieces::try_new_in(t, &faces[..nf])?;
         let at = |c: u32| generators.get(c as usize).copied().unwrap_or([0.0; 3]);
         let centroid = |f: [u32; 3]| {
             let [a, b, c] = f.map(at);
@@ -207,10 +220,10 @@ pub(super) fn join_bubbles<'b, S: Alloc<'b>>(
         let (mut nf, mut tubes) = (nf, 0u32);
         let original = nf;
         for r in 0..original {
-            if root[r] as usize != r || !bubble(r) || nf + 4 > cap {
+            if root[r] as usize != r || !detached[r] || nf + 4 > cap {
                 continue;
             }
-            // The eight nearest facing pairs (bubble face, other face).
+            // The eight nearest facing pairs (this piece's face, another's).
             let mut near = [(f32::INFINITY, 0usize, 0usize); 8];
             for fb in (0..original).filter(|&f| root[f] as usize == r) {
                 let (cb, nb) = (centroid(faces[fb]), normal(faces[fb]));

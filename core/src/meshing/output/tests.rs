@@ -170,3 +170,71 @@ fn a_skipped_cluster_goes_into_the_mesh_only_where_joins_allows() {
     assert_eq!((inserted, left), (0, 1));
     assert_eq!(faces, f);
 }
+
+/// A closed cylinder along x from `x0` to `x1`, radius 0.3, `sides` around,
+/// `rings` segments long, its ends closed by fans around their centres;
+/// appended to `v` and `f`.
+fn capped_cylinder(
+    x0: f32,
+    x1: f32,
+    rings: u32,
+    sides: u32,
+    v: &mut Vec<V3>,
+    f: &mut Vec<[u32; 3]>,
+) {
+    let base = v.len() as u32;
+    for r in 0..=rings {
+        let x = x0 + (x1 - x0) * r as f32 / rings as f32;
+        for s in 0..sides {
+            let a = core::f32::consts::TAU * s as f32 / sides as f32;
+            v.push([x, 0.3 * libm::cosf(a), 0.3 * libm::sinf(a)]);
+        }
+    }
+    let at = |r: u32, s: u32| base + r * sides + s % sides;
+    for r in 0..rings {
+        for s in 0..sides {
+            f.push([at(r, s), at(r + 1, s), at(r + 1, s + 1)]);
+            f.push([at(r, s), at(r + 1, s + 1), at(r, s + 1)]);
+        }
+    }
+    let (c0, c1) = (v.len() as u32, v.len() as u32 + 1);
+    v.push([x0, 0.0, 0.0]);
+    v.push([x1, 0.0, 0.0]);
+    for s in 0..sides {
+        f.push([c0, at(0, s + 1), at(0, s)]);
+        f.push([c1, at(rings, s), at(rings, s + 1)]);
+    }
+}
+
+#[test]
+fn a_closed_piece_of_any_size_beside_the_largest_is_joined_by_a_tube_where_joins_allows() {
+    // A long cylinder and, past its end, a short one of 24 faces (too large
+    // for a bubble): their facing ends get a tube, and the two are one closed,
+    // consistently oriented surface; when `joins` refuses, nothing changes.
+    let (mut v, mut f) = (Vec::new(), Vec::new());
+    capped_cylinder(0.0, 2.0, 4, 6, &mut v, &mut f);
+    let short = f.len();
+    capped_cylinder(2.2, 2.7, 1, 6, &mut v, &mut f);
+    assert_eq!(f.len() - short, 24);
+    let run = |joins: &dyn Fn(&[[u32; 3]]) -> bool| {
+        let mut buf = vec![MaybeUninit::uninit(); 1 << 18];
+        let arena = Arena::new(&mut buf);
+        let mut faces = f.clone();
+        let clash = arena.try_alloc_slice::<bool>(f.len(), false).unwrap();
+        orient(&arena, &mut faces, &v, clash).unwrap();
+        let oriented = faces.clone();
+        let nf = faces.len();
+        faces.extend([[0; 3]; 8]);
+        let cap = faces.len();
+        let (nf, tubes) = join_pieces(&arena, &mut faces, nf, cap, &v, 1e-6, joins).unwrap();
+        let (_, bubbles, pieces) = drop_bubbles(&arena, &mut faces, nf).unwrap();
+        (oriented, faces[..nf].to_vec(), tubes, bubbles, pieces)
+    };
+    let (_, faces, tubes, bubbles, pieces) = run(&|_| true);
+    assert_eq!((tubes, bubbles, pieces), (1, 0, 1));
+    assert_eq!(faces.len(), f.len() + 4);
+    assert!(closed_and_consistent(&faces));
+    let (oriented, faces, tubes, _, pieces) = run(&|_| false);
+    assert_eq!((tubes, pieces), (0, 2));
+    assert_eq!(faces, oriented);
+}
