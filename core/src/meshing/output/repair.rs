@@ -190,10 +190,10 @@ pub(super) fn drop_bubbles<'b, S: Alloc<'b>>(
 /// paired so the tube twists least). Such a piece is most often the tip of a
 /// thin part, which the selection closed on itself (then a bubble, see
 /// [`drop_bubbles`]) or which repair cut off where it cut out crossing faces
-/// and closed both sides of the cut, of any size (the horse's leg tip at 250
-/// clusters by sweeps, 42 faces); joined, the tip stays in the mesh and the
-/// surface keeps its genus (one tube between two pieces makes no handle).
-/// Of each piece's facing pairs the eight nearest are tried; a tube
+/// and closed both sides of the cut, of any size (`bench/notes.md` has the
+/// horse's leg tip); joined, the tip stays in the mesh and the surface keeps
+/// its genus (one tube between two pieces makes no handle). Of each piece's
+/// facing pairs the eight nearest are tried; a tube
 /// is made only when it shares no vertex with either face's other corners, its
 /// faces are not degenerate, it crosses or folds onto nothing ([`untangled`])
 /// and `joins` takes its faces (not when it would join one piece of the data
