@@ -19,13 +19,19 @@
 //! - **Twists**: edge constraints cannot see a fold-over between facets that share
 //!   no edge, so a selection can be non-orientable. The faces around an edge where
 //!   the orientation clashes are cut out (the two faces on each clashing edge)
-//!   and the hole closed again, at most three times.
+//!   and the hole closed again, at most three times. The clashes lie on a seam
+//!   where one flood's fronts meet; when the repair then leaves a loop open
+//!   (cutting a long seam merged holes past `max_hole`), it is redone from the
+//!   selection with the shortest seams of several floods
+//!   ([`orient::Seam::Shortest`]), kept if fewer loops stay open.
 //! - No degenerate faces (dropped with the candidates), no duplicates (candidate
 //!   facets are distinct vertex triples; a filled triangle equal to an existing
 //!   face is refused), every vertex used.
 //!
 //! Memory: the mesh (12 bytes per vertex and per face) plus O(faces + candidate
-//! edges) scratch. Cost: linear in faces and edges.
+//! edges) scratch. Cost: linear in faces and edges (times log F for the edge
+//! table), at most three repairs of the selection, one of them with
+//! [`orient::FLOODS`] floods per orientation.
 
 pub mod densify;
 mod gaps;
@@ -50,7 +56,7 @@ use crate::progress::Progress;
 use densify::{densify, part_of_surface, Growing};
 use holes::{fill_holes, Filled};
 use insert::insert_skipped;
-use orient::orient;
+use orient::{orient, Seam};
 use repair::{
     corner_fans, drop_bubbles, join_pieces, mark_pinches, mark_tangles, neck_pinches,
     retain_unmarked,
@@ -288,99 +294,122 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
         };
         let fill_end = nf + fill_room;
         let faces = s.try_alloc_slice::<[u32; 3]>(fill_end + 2 * m, [0; 3])?;
-        for (w, i) in (0..selected.len()).filter(|&i| keep[i]).enumerate() {
-            faces[w] = cand.facets[i];
-        }
         let tol = crate::meshing::candidates::COINCIDENT * diag;
         let clash = s.try_alloc_slice::<bool>(faces.len(), false)?;
         // Clusters on a boundary loop kept open (along the border of the data).
         let along = s.try_alloc_slice::<bool>(m, false)?;
-        let mut nf = nf;
-        let mut filled = Filled::default();
-        let mut repaired = 0u32;
-        let (mut unpinched, mut pinched, mut untangled, mut widened) = (0u32, 0u32, 0u32, 0u32);
-        let (mut necked, mut neck_count) = (0u32, 0u32);
         let widen = s.try_alloc_slice::<bool>(faces.len(), false)?;
-        let (_, non_orientable) = loop {
-            clash[..nf].fill(false);
-            let (components, non_orientable) = orient(s, &mut faces[..nf], generators, clash)?;
-            if max_hole == 0 {
-                break (components, non_orientable);
+        // The repair from the selection: the seams of orientation clashes
+        // placed by one flood; when the repair then left a loop open, redone
+        // with the shortest seams, and that kept if it left fewer open (else
+        // the first repair redone).
+        let nf0 = nf;
+        let (mut attempt, mut first_left) = (0u32, 0u32);
+        let (nf, filled, repaired, pinched, neck_count, non_orientable) = loop {
+            let seam = if attempt == 1 {
+                Seam::Shortest
+            } else {
+                Seam::Flood
+            };
+            for (w, i) in (0..selected.len()).filter(|&i| keep[i]).enumerate() {
+                faces[w] = cand.facets[i];
             }
-            // Close the holes; a clash (the selection folded over somewhere, which
-            // edge constraints cannot see) is cut out and closed again, a few
-            // times at most.
-            widen[..nf].fill(false);
-            let more = fill_holes(
-                s,
-                &mut faces[..fill_end],
-                nf,
-                generators,
-                open,
-                along,
-                widen,
-                max_hole,
-                tol,
-            )?;
-            filled.faces += more.faces;
-            filled.holes += more.holes;
-            filled.left = more.left;
-            filled.open = more.open;
-            nf += more.faces;
-            if non_orientable == 0 || repaired == REPAIRS {
-                // Faces that cross others (exact test) or fold onto their
-                // neighbour are cut out and their holes closed again.
-                if untangled < UNTANGLE_ROUNDS {
-                    clash[..nf].fill(false);
-                    let crossing = mark_tangles(s, &faces[..nf], generators, clash)?;
-                    if crossing > 0 {
-                        untangled += 1;
-                        nf = retain_unmarked(faces, nf, clash);
+            let mut nf = nf0;
+            let mut filled = Filled::default();
+            let mut repaired = 0u32;
+            let (mut unpinched, mut pinched, mut untangled, mut widened) = (0u32, 0u32, 0u32, 0u32);
+            let (mut necked, mut neck_count) = (0u32, 0u32);
+            let (_, non_orientable) = loop {
+                clash[..nf].fill(false);
+                let (components, non_orientable) =
+                    orient(s, &mut faces[..nf], generators, clash, seam)?;
+                if max_hole == 0 {
+                    break (components, non_orientable);
+                }
+                // Close the holes; a clash (the selection folded over somewhere, which
+                // edge constraints cannot see) is cut out and closed again, a few
+                // times at most.
+                widen[..nf].fill(false);
+                let more = fill_holes(
+                    s,
+                    &mut faces[..fill_end],
+                    nf,
+                    generators,
+                    open,
+                    along,
+                    widen,
+                    max_hole,
+                    tol,
+                )?;
+                filled.faces += more.faces;
+                filled.holes += more.holes;
+                filled.left = more.left;
+                filled.open = more.open;
+                nf += more.faces;
+                if non_orientable == 0 || repaired == REPAIRS {
+                    // Faces that cross others (exact test) or fold onto their
+                    // neighbour are cut out and their holes closed again.
+                    if untangled < UNTANGLE_ROUNDS {
+                        clash[..nf].fill(false);
+                        let crossing = mark_tangles(s, &faces[..nf], generators, clash)?;
+                        if crossing > 0 {
+                            untangled += 1;
+                            nf = retain_unmarked(faces, nf, clash);
+                            continue;
+                        }
+                    }
+                    // A hole no ear could close cleanly is widened by the faces
+                    // around it and closed again.
+                    if widened < UNTANGLE_ROUNDS && widen[..nf].contains(&true) {
+                        widened += 1;
+                        nf = retain_unmarked(faces, nf, widen);
                         continue;
                     }
-                }
-                // A hole no ear could close cleanly is widened by the faces
-                // around it and closed again.
-                if widened < UNTANGLE_ROUNDS && widen[..nf].contains(&true) {
-                    widened += 1;
-                    nf = retain_unmarked(faces, nf, widen);
-                    continue;
-                }
-                // A thin part hanging at one vertex joins the surface by a neck.
-                if necked < NECK_ROUNDS {
-                    let (grown, necks) = neck_pinches(s, faces, nf, fill_end, generators, tol)?;
-                    if necks > 0 {
-                        necked += 1;
-                        neck_count += necks;
-                        nf = grown;
-                        continue;
+                    // A thin part hanging at one vertex joins the surface by a neck.
+                    if necked < NECK_ROUNDS {
+                        let (grown, necks) = neck_pinches(s, faces, nf, fill_end, generators, tol)?;
+                        if necks > 0 {
+                            necked += 1;
+                            neck_count += necks;
+                            nf = grown;
+                            continue;
+                        }
                     }
-                }
-                // Any other generator whose faces form several fans (the
-                // surface pinched there) keeps its largest fan; the others are
-                // cut out and their holes closed without it, so no vertex
-                // needs splitting in place.
-                if unpinched < REPAIRS {
-                    clash[..nf].fill(false);
-                    let pinches = mark_pinches(s, &faces[..nf], m, clash)?;
-                    if pinches > 0 {
-                        unpinched += 1;
-                        pinched += pinches;
-                        nf = retain_unmarked(faces, nf, clash);
-                        continue;
+                    // Any other generator whose faces form several fans (the
+                    // surface pinched there) keeps its largest fan; the others are
+                    // cut out and their holes closed without it, so no vertex
+                    // needs splitting in place.
+                    if unpinched < REPAIRS {
+                        clash[..nf].fill(false);
+                        let pinches = mark_pinches(s, &faces[..nf], m, clash)?;
+                        if pinches > 0 {
+                            unpinched += 1;
+                            pinched += pinches;
+                            nf = retain_unmarked(faces, nf, clash);
+                            continue;
+                        }
                     }
+                    if more.faces > 0 {
+                        clash[..nf].fill(false);
+                        break orient(s, &mut faces[..nf], generators, clash, seam)?;
+                    }
+                    break (components, non_orientable);
                 }
-                if more.faces > 0 {
-                    clash[..nf].fill(false);
-                    break orient(s, &mut faces[..nf], generators, clash)?;
-                }
-                break (components, non_orientable);
+                repaired += 1;
+                // Only the faces on both sides of a clashing edge go: cutting their
+                // whole neighbourhood opened holes too large to close (block, 250
+                // clusters: 27 % of the points left uncovered).
+                nf = retain_unmarked(faces, nf, clash);
+            };
+            if attempt == 0 && repaired > 0 && filled.left > 0 {
+                (attempt, first_left) = (1, filled.left);
+                continue;
             }
-            repaired += 1;
-            // Only the faces on both sides of a clashing edge go: cutting their
-            // whole neighbourhood opened holes too large to close (block, 250
-            // clusters: 27 % of the points left uncovered).
-            nf = retain_unmarked(faces, nf, clash);
+            if attempt == 1 && filled.left >= first_left {
+                attempt = 2;
+                continue;
+            }
+            break (nf, filled, repaired, pinched, neck_count, non_orientable);
         };
         // A face none of whose edges has a second face (a stray triangle, or one
         // left when the faces around it were cut out) is a hole no ear can close

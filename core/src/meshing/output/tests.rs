@@ -50,11 +50,11 @@ fn fill(faces: &[[u32; 3]], v: &[V3], max_hole: u32) -> (Vec<[u32; 3]>, Filled, 
         .unwrap();
     all[..nf].copy_from_slice(faces);
     let clash = arena.try_alloc_slice::<bool>(all.len(), false).unwrap();
-    orient(&arena, &mut all[..nf], v, clash).unwrap();
+    orient(&arena, &mut all[..nf], v, clash, Seam::Flood).unwrap();
     let filled = fill_holes(&arena, all, nf, v, &[], &mut [], &mut [], max_hole, 1e-6).unwrap();
     let total = nf + filled.faces;
     clash.fill(false);
-    let (_, bad) = orient(&arena, &mut all[..total], v, clash).unwrap();
+    let (_, bad) = orient(&arena, &mut all[..total], v, clash, Seam::Flood).unwrap();
     (all[..total].to_vec(), filled, bad)
 }
 
@@ -221,7 +221,7 @@ fn a_closed_piece_of_any_size_beside_the_largest_is_joined_by_a_tube_where_joins
         let arena = Arena::new(&mut buf);
         let mut faces = f.clone();
         let clash = arena.try_alloc_slice::<bool>(f.len(), false).unwrap();
-        orient(&arena, &mut faces, &v, clash).unwrap();
+        orient(&arena, &mut faces, &v, clash, Seam::Flood).unwrap();
         let oriented = faces.clone();
         let nf = faces.len();
         faces.extend([[0; 3]; 8]);
@@ -237,4 +237,69 @@ fn a_closed_piece_of_any_size_beside_the_largest_is_joined_by_a_tube_where_joins
     let (oriented, faces, tubes, _, pieces) = run(&|_| false);
     assert_eq!((tubes, pieces), (0, 2));
     assert_eq!(faces, oriented);
+}
+
+/// A Möbius band of `n` columns: `wide` rows of quads, but only one in the
+/// three middle columns, whose faces come first. Returns the vertices, the
+/// faces and how many faces the narrow part has.
+fn pinched_moebius(n: usize, wide: usize) -> (Vec<V3>, Vec<[u32; 3]>, usize) {
+    let mut v = Vec::new();
+    for i in 0..n {
+        let a = core::f32::consts::TAU * i as f32 / n as f32;
+        for j in 0..=wide {
+            let t = j as f32 / wide as f32 - 0.5;
+            let r = 1.0 + t * libm::cosf(a / 2.0);
+            v.push([
+                r * libm::cosf(a),
+                r * libm::sinf(a),
+                t * libm::sinf(a / 2.0),
+            ]);
+        }
+    }
+    // Past the last column the band comes back to the first turned over.
+    let at = |i: usize, j: usize| {
+        if i == n {
+            (wide - j) as u32
+        } else {
+            (i * (wide + 1) + j) as u32
+        }
+    };
+    let narrow = |i: usize| (n / 2 - 1..n / 2 + 2).contains(&i);
+    let (mut first, mut rest) = (Vec::new(), Vec::new());
+    for i in 0..n {
+        let rows = if narrow(i) { 1 } else { wide };
+        for j in 0..rows {
+            let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+            let into = if narrow(i) { &mut first } else { &mut rest };
+            into.extend([[a, b, c], [a, c, d]]);
+        }
+    }
+    let k = first.len();
+    first.extend(rest);
+    (v, first, k)
+}
+
+#[test]
+fn the_shortest_seam_crosses_a_moebius_band_where_it_is_narrowest() {
+    // Flooded from a face of the narrow part, the fronts meet across the
+    // wide part (a seam of several links); the shortest seam is one link,
+    // across the narrow part or where it meets the wide part.
+    let (v, f, narrow) = pinched_moebius(16, 4);
+    let run = |seam: Seam| {
+        let mut buf = vec![MaybeUninit::uninit(); 1 << 16];
+        let arena = Arena::new(&mut buf);
+        let mut faces = f.clone();
+        let clash = arena.try_alloc_slice::<bool>(f.len(), false).unwrap();
+        let (components, bad) = orient(&arena, &mut faces, &v, clash, seam).unwrap();
+        assert_eq!((components, bad), (1, 1));
+        (0..f.len()).filter(|&i| clash[i]).collect::<Vec<_>>()
+    };
+    let flood = run(Seam::Flood);
+    assert!(
+        flood.len() > 4 && flood.iter().all(|&i| i >= narrow),
+        "{flood:?}"
+    );
+    let shortest = run(Seam::Shortest);
+    assert_eq!(shortest.len(), 2, "{shortest:?}");
+    assert!(shortest.iter().any(|&i| i < narrow), "{shortest:?}");
 }
