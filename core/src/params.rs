@@ -208,13 +208,12 @@ pub enum Partition {
 }
 
 /// Points from which [`Partition::Auto`] sweeps. Below, region growing is
-/// about as fast (the bunny, 34,834 points at 1,000 clusters: clustering
-/// 146 against 167 ms on one thread, 135 against 109 on two), and its meshes
-/// are the ones the shared clouds (all smaller) were tuned on: swept, 2 of
-/// their 36 closed-model meshes lose the model's genus (the horse at 250
-/// clusters comes out in two pieces, the rocker arm at 2,000 open). From a
-/// million points sweeps take half the time on one thread (a pass after the
-/// first recomputes only the borders between clusters) and use every core.
+/// faster on one thread, and its meshes are the ones the comparison with
+/// Open3D and MeshLab was run on (the shared clouds are all smaller); swept,
+/// they are as often valid solids of their true genus, but their distances
+/// have not been through that comparison (`bench/notes.md`). From a million
+/// points sweeps take half the time on one thread (a pass after the first
+/// recomputes only the borders between clusters) and use every core.
 pub const SWEEP_MIN_POINTS: usize = 131_072;
 
 impl Partition {
