@@ -23,7 +23,7 @@
 //!   where one flood's fronts meet; when the repair then leaves a loop open
 //!   (cutting a long seam merged holes past `max_hole`), it is redone from the
 //!   selection with the shortest seams of several floods
-//!   ([`orient::Seam::Shortest`]), kept if fewer loops stay open.
+//!   (`orient::Seam::Shortest`), kept if fewer loops stay open.
 //! - No degenerate faces (dropped with the candidates), no duplicates (candidate
 //!   facets are distinct vertex triples; a filled triangle equal to an existing
 //!   face is refused), every vertex used.
@@ -31,7 +31,7 @@
 //! Memory: the mesh (12 bytes per vertex and per face) plus O(faces + candidate
 //! edges) scratch. Cost: linear in faces and edges (times log F for the edge
 //! table), at most three repairs of the selection, one of them with
-//! [`orient::FLOODS`] floods per orientation.
+//! `orient::FLOODS` floods per orientation.
 
 pub mod densify;
 mod gaps;
