@@ -304,112 +304,44 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
         // with the shortest seams, and that kept if it left fewer open (else
         // the first repair redone).
         let nf0 = nf;
+        let mut work = Workspace {
+            faces,
+            fill_end,
+            clash,
+            widen,
+            along,
+            open,
+            m,
+            max_hole,
+            tol,
+        };
         let (mut attempt, mut first_left) = (0u32, 0u32);
-        let (nf, filled, repaired, pinched, neck_count, non_orientable) = loop {
+        let Repair {
+            nf,
+            filled,
+            repaired,
+            pinched,
+            necks: neck_count,
+            non_orientable,
+        } = loop {
             let seam = if attempt == 1 {
                 Seam::Shortest
             } else {
                 Seam::Flood
             };
             for (w, i) in (0..selected.len()).filter(|&i| keep[i]).enumerate() {
-                faces[w] = cand.facets[i];
+                work.faces[w] = cand.facets[i];
             }
-            let mut nf = nf0;
-            let mut filled = Filled::default();
-            let mut repaired = 0u32;
-            let (mut unpinched, mut pinched, mut untangled, mut widened) = (0u32, 0u32, 0u32, 0u32);
-            let (mut necked, mut neck_count) = (0u32, 0u32);
-            let (_, non_orientable) = loop {
-                clash[..nf].fill(false);
-                let (components, non_orientable) =
-                    orient(s, &mut faces[..nf], generators, clash, seam)?;
-                if max_hole == 0 {
-                    break (components, non_orientable);
-                }
-                // Close the holes; a clash (the selection folded over somewhere, which
-                // edge constraints cannot see) is cut out and closed again, a few
-                // times at most.
-                widen[..nf].fill(false);
-                let more = fill_holes(
-                    s,
-                    &mut faces[..fill_end],
-                    nf,
-                    generators,
-                    open,
-                    along,
-                    widen,
-                    max_hole,
-                    tol,
-                )?;
-                filled.faces += more.faces;
-                filled.holes += more.holes;
-                filled.left = more.left;
-                filled.open = more.open;
-                nf += more.faces;
-                if non_orientable == 0 || repaired == REPAIRS {
-                    // Faces that cross others (exact test) or fold onto their
-                    // neighbour are cut out and their holes closed again.
-                    if untangled < UNTANGLE_ROUNDS {
-                        clash[..nf].fill(false);
-                        let crossing = mark_tangles(s, &faces[..nf], generators, clash)?;
-                        if crossing > 0 {
-                            untangled += 1;
-                            nf = retain_unmarked(faces, nf, clash);
-                            continue;
-                        }
-                    }
-                    // A hole no ear could close cleanly is widened by the faces
-                    // around it and closed again.
-                    if widened < UNTANGLE_ROUNDS && widen[..nf].contains(&true) {
-                        widened += 1;
-                        nf = retain_unmarked(faces, nf, widen);
-                        continue;
-                    }
-                    // A thin part hanging at one vertex joins the surface by a neck.
-                    if necked < NECK_ROUNDS {
-                        let (grown, necks) = neck_pinches(s, faces, nf, fill_end, generators, tol)?;
-                        if necks > 0 {
-                            necked += 1;
-                            neck_count += necks;
-                            nf = grown;
-                            continue;
-                        }
-                    }
-                    // Any other generator whose faces form several fans (the
-                    // surface pinched there) keeps its largest fan; the others are
-                    // cut out and their holes closed without it, so no vertex
-                    // needs splitting in place.
-                    if unpinched < REPAIRS {
-                        clash[..nf].fill(false);
-                        let pinches = mark_pinches(s, &faces[..nf], m, clash)?;
-                        if pinches > 0 {
-                            unpinched += 1;
-                            pinched += pinches;
-                            nf = retain_unmarked(faces, nf, clash);
-                            continue;
-                        }
-                    }
-                    if more.faces > 0 {
-                        clash[..nf].fill(false);
-                        break orient(s, &mut faces[..nf], generators, clash, seam)?;
-                    }
-                    break (components, non_orientable);
-                }
-                repaired += 1;
-                // Only the faces on both sides of a clashing edge go: cutting their
-                // whole neighbourhood opened holes too large to close (block, 250
-                // clusters: 27 % of the points left uncovered).
-                nf = retain_unmarked(faces, nf, clash);
-            };
-            if attempt == 0 && repaired > 0 && filled.left > 0 {
-                (attempt, first_left) = (1, filled.left);
+            let repair = repair_selection(s, &mut work, nf0, generators, seam)?;
+            if attempt == 0 && repair.repaired > 0 && repair.filled.left > 0 {
+                (attempt, first_left) = (1, repair.filled.left);
                 continue;
             }
-            if attempt == 1 && filled.left >= first_left {
+            if attempt == 1 && repair.filled.left >= first_left {
                 attempt = 2;
                 continue;
             }
-            break (nf, filled, repaired, pinched, neck_count, non_orientable);
+            break repair;
         };
         // A face none of whose edges has a second face (a stray triangle, or one
         // left when the faces around it were cut out) is a hole no ear can close
@@ -796,5 +728,159 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             stats,
         };
         Ok((Some(mesh), stats))
+    })
+}
+
+/// What [`repair_selection`] did.
+struct Repair {
+    /// Faces after it.
+    nf: usize,
+    filled: Filled,
+    /// Rounds that cut out the faces on orientation clashes.
+    repaired: u32,
+    /// Generators where the surface pinched, cut out.
+    pinched: u32,
+    /// Thin parts joined by a neck.
+    necks: u32,
+    /// Components that could not be oriented consistently, at the end.
+    non_orientable: u32,
+}
+
+/// The faces, their marks and the bounds [`repair_selection`] works in.
+struct Workspace<'w> {
+    /// Faces: the selection's first, then room for filling up to `fill_end`.
+    faces: &'w mut [[u32; 3]],
+    fill_end: usize,
+    clash: &'w mut [bool],
+    widen: &'w mut [bool],
+    /// Clusters on a boundary loop kept open (along the border of the data).
+    along: &'w mut [bool],
+    /// Generators (clusters) on the border of the data.
+    open: &'w [bool],
+    /// Clusters in all.
+    m: usize,
+    max_hole: u32,
+    tol: f32,
+}
+
+/// Orient the first `nf` faces (the selection's), close their holes and
+/// repair them: faces on orientation clashes (seams placed by `seam`),
+/// crossing or folded faces, holes no ear closes cleanly, thin parts hanging
+/// at one vertex and pinched generators are cut out or joined, and the holes
+/// closed again, each a bounded number of rounds. Cost: each round is linear
+/// in the faces (times log F for the edge table).
+fn repair_selection<'b, S: Alloc<'b>>(
+    s: &S,
+    w: &mut Workspace,
+    nf: usize,
+    generators: &[V3],
+    seam: Seam,
+) -> Result<Repair> {
+    let Workspace {
+        faces,
+        fill_end,
+        clash,
+        widen,
+        along,
+        open,
+        m,
+        max_hole,
+        tol,
+    } = w;
+    let (faces, clash, widen, along) = (&mut **faces, &mut **clash, &mut **widen, &mut **along);
+    let (fill_end, open, m, max_hole, tol) = (*fill_end, *open, *m, *max_hole, *tol);
+    let mut nf = nf;
+    let mut filled = Filled::default();
+    let mut repaired = 0u32;
+    let (mut unpinched, mut pinched, mut untangled, mut widened) = (0u32, 0u32, 0u32, 0u32);
+    let (mut necked, mut neck_count) = (0u32, 0u32);
+    let (_, non_orientable) = loop {
+        clash[..nf].fill(false);
+        let (components, non_orientable) = orient(s, &mut faces[..nf], generators, clash, seam)?;
+        if max_hole == 0 {
+            break (components, non_orientable);
+        }
+        // Close the holes; a clash (the selection folded over somewhere, which
+        // edge constraints cannot see) is cut out and closed again, a few
+        // times at most.
+        widen[..nf].fill(false);
+        let more = fill_holes(
+            s,
+            &mut faces[..fill_end],
+            nf,
+            generators,
+            open,
+            along,
+            widen,
+            max_hole,
+            tol,
+        )?;
+        filled.faces += more.faces;
+        filled.holes += more.holes;
+        filled.left = more.left;
+        filled.open = more.open;
+        nf += more.faces;
+        if non_orientable == 0 || repaired == REPAIRS {
+            // Faces that cross others (exact test) or fold onto their
+            // neighbour are cut out and their holes closed again.
+            if untangled < UNTANGLE_ROUNDS {
+                clash[..nf].fill(false);
+                let crossing = mark_tangles(s, &faces[..nf], generators, clash)?;
+                if crossing > 0 {
+                    untangled += 1;
+                    nf = retain_unmarked(faces, nf, clash);
+                    continue;
+                }
+            }
+            // A hole no ear could close cleanly is widened by the faces
+            // around it and closed again.
+            if widened < UNTANGLE_ROUNDS && widen[..nf].contains(&true) {
+                widened += 1;
+                nf = retain_unmarked(faces, nf, widen);
+                continue;
+            }
+            // A thin part hanging at one vertex joins the surface by a neck.
+            if necked < NECK_ROUNDS {
+                let (grown, necks) = neck_pinches(s, faces, nf, fill_end, generators, tol)?;
+                if necks > 0 {
+                    necked += 1;
+                    neck_count += necks;
+                    nf = grown;
+                    continue;
+                }
+            }
+            // Any other generator whose faces form several fans (the
+            // surface pinched there) keeps its largest fan; the others are
+            // cut out and their holes closed without it, so no vertex
+            // needs splitting in place.
+            if unpinched < REPAIRS {
+                clash[..nf].fill(false);
+                let pinches = mark_pinches(s, &faces[..nf], m, clash)?;
+                if pinches > 0 {
+                    unpinched += 1;
+                    pinched += pinches;
+                    nf = retain_unmarked(faces, nf, clash);
+                    continue;
+                }
+            }
+            if more.faces > 0 {
+                clash[..nf].fill(false);
+                break orient(s, &mut faces[..nf], generators, clash, seam)?;
+            }
+            break (components, non_orientable);
+        }
+        repaired += 1;
+        // Only the faces on both sides of a clashing edge go: cutting their
+        // whole neighbourhood opened holes too large to close (block, 250
+        // clusters: 27 % of the points left uncovered).
+        nf = retain_unmarked(faces, nf, clash);
+    };
+    Ok(Repair {
+        nf,
+        filled,
+        repaired,
+        pinched,
+        necks: neck_count,
+        non_orientable,
     })
 }
