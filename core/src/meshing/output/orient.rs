@@ -112,6 +112,36 @@ fn shorten(
     }
 }
 
+/// Flood breadth-first from face `from` (its orientation kept as it is in
+/// `flip`), across every link to a face `claim` takes (true the first time
+/// it is asked about a face), giving each the orientation that runs the
+/// shared edge opposite. The faces reached, `from` first, are left in
+/// `order`; returns their count. O(F log F) over the faces reached.
+fn flood(
+    faces: &[[u32; 3]],
+    table: &[(u64, u32)],
+    from: usize,
+    flip: &mut [bool],
+    order: &mut [u32],
+    mut claim: impl FnMut(usize) -> bool,
+) -> usize {
+    claim(from);
+    order[0] = from as u32;
+    let (mut head, mut len) = (0usize, 1usize);
+    while head < len {
+        let f = order[head] as usize;
+        head += 1;
+        for_each_link(faces, table, f, flip[f], |g, want| {
+            if claim(g) {
+                flip[g] = want;
+                order[len] = g as u32;
+                len += 1;
+            }
+        });
+    }
+    len
+}
+
 /// Orient the faces in place: neighbours run their shared edge in opposite
 /// directions, and each component encloses a positive volume. Returns the number
 /// of components and of components that could not be oriented consistently; the
@@ -157,21 +187,11 @@ pub(super) fn orient<'b, S: Alloc<'b>>(
             let id = components;
             components += 1;
             // The first flood: the component, in breadth-first order.
-            comp[start] = id;
-            order[0] = start as u32;
-            let (mut head, mut len) = (0usize, 1usize);
-            while head < len {
-                let f = order[head] as usize;
-                head += 1;
-                for_each_link(faces, table, f, flip[f], |g, want| {
-                    if comp[g] == NO {
-                        comp[g] = id;
-                        flip[g] = want;
-                        order[len] = g as u32;
-                        len += 1;
-                    }
-                });
-            }
+            let len = flood(faces, table, start, flip, order, |g| {
+                let new = comp[g] == NO;
+                comp[g] = id;
+                new
+            });
             let members = &order[..len];
             let mut best = clashes(flip, members);
             if best == 0 {
@@ -185,22 +205,12 @@ pub(super) fn orient<'b, S: Alloc<'b>>(
                 // A flood from a face `k / FLOODS` of the way through the first.
                 stamp += 1;
                 let from = members[k * len / FLOODS] as usize;
-                reached[from] = stamp;
                 trial[from] = false;
-                queue[0] = from as u32;
-                let (mut head, mut tail) = (0usize, 1usize);
-                while head < tail {
-                    let f = queue[head] as usize;
-                    head += 1;
-                    for_each_link(faces, table, f, trial[f], |g, want| {
-                        if reached[g] != stamp {
-                            reached[g] = stamp;
-                            trial[g] = want;
-                            queue[tail] = g as u32;
-                            tail += 1;
-                        }
-                    });
-                }
+                flood(faces, table, from, trial, queue, |g| {
+                    let new = reached[g] != stamp;
+                    reached[g] = stamp;
+                    new
+                });
                 shorten(faces, table, trial, members, queue, queued);
                 let n = clashes(trial, members);
                 if n < best {
