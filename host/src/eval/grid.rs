@@ -150,6 +150,17 @@ impl Grid {
         true
     }
 
+    /// The squared distance from `p` to the grid's box (0 inside it).
+    fn box_dist2(&self, p: [f64; 3]) -> f64 {
+        let mut d2 = 0.0;
+        for a in 0..3 {
+            let hi = self.min[a] + self.dims[a] as f64 * self.h;
+            let d = (self.min[a] - p[a]).max(p[a] - hi).max(0.0);
+            d2 += d * d;
+        }
+        d2
+    }
+
     /// Squared distance from `p` to the box of cell `c`.
     fn cell_dist2(&self, p: [f64; 3], c: [usize; 3]) -> f64 {
         let mut d2 = 0.0;
@@ -164,20 +175,36 @@ impl Grid {
     /// The smallest `dist2(item, best2)` over all items, exactly: cells are visited in
     /// rings of growing Chebyshev radius around the cell of `p` until the next ring is
     /// farther than the best distance. `dist2` may return `INFINITY` for an item it can
-    /// show is not closer than `best2`.
-    pub(super) fn nearest(&self, p: [f64; 3], mut dist2: impl FnMut(u32, f64) -> f64) -> f64 {
+    /// show is not closer than `best2`. A ring's lower bound counts how far `p`
+    /// lies outside the grid's box, so a point whose squared distances all
+    /// overflow looks at no cell.
+    pub(super) fn nearest(&self, p: [f64; 3], dist2: impl FnMut(u32, f64) -> f64) -> f64 {
+        self.nearest_in_rings(p, dist2).0
+    }
+
+    /// [`Grid::nearest`], and the rings of cells it looked at.
+    fn nearest_in_rings(
+        &self,
+        p: [f64; 3],
+        mut dist2: impl FnMut(u32, f64) -> f64,
+    ) -> (f64, usize) {
         let c = self.cell_of(p);
         let reach = (0..3)
             .map(|a| c[a].max(self.dims[a] - 1 - c[a]))
             .max()
             .unwrap_or(0);
+        // How far `p` lies outside the grid's box, which every cell is too.
+        let outside2 = self.box_dist2(p);
         let mut best2 = f64::INFINITY;
+        let mut rings = 0;
         for k in 0..=reach {
-            // Any cell of ring k is at least (k - 1) * h away.
+            // Any cell of ring k is at least (k - 1) * h away from the cell of
+            // `p` along one axis, on top of how far `p` lies outside the box.
             let lb = k.saturating_sub(1) as f64 * self.h;
-            if lb * lb >= best2 {
+            if outside2 + lb * lb >= best2 {
                 break;
             }
+            rings += 1;
             let lo = c.map(|v| v as isize - k as isize);
             let hi = c.map(|v| v as isize + k as isize);
             for z in lo[2].max(0)..=hi[2].min(self.dims[2] as isize - 1) {
@@ -203,7 +230,7 @@ impl Grid {
                 }
             }
         }
-        best2
+        (best2, rings)
     }
 }
 
@@ -225,6 +252,36 @@ mod tests {
     use super::*;
     use crate::eval::rng_points;
     use crate::geom::dot;
+
+    #[test]
+    fn points_far_outside_the_grid_are_found_exactly_and_past_overflow_at_once() {
+        // A fuzz input (fuzz/REPORT.md): surface samples within 1e-80 of the
+        // origin against points out to 1e302 went through every ring of cells
+        // for each sample, every distance being infinite. Here 4,096 points in
+        // a cube, queries 1e3 to 1e219 outside it on every side.
+        let pts = rng_points(4096, 11, 1.0);
+        let boxes: Vec<_> = pts.iter().map(|&p| (p, p)).collect();
+        let grid = Grid::build(&boxes, pts.len() as f64);
+        assert!(grid.dims.iter().all(|&d| d > 8), "dims {:?}", grid.dims);
+        for (n, q) in rng_points(64, 12, 1.0).into_iter().enumerate() {
+            let far = 10f64.powi(3 + (n as i32 % 5) * 54);
+            let mut p = q;
+            p[n % 3] += if n % 2 == 0 { far } else { -far };
+            let (got, rings) = grid.nearest_in_rings(p, |i, _| {
+                dot(sub(pts[i as usize], p), sub(pts[i as usize], p))
+            });
+            let want = pts
+                .iter()
+                .map(|&x| dot(sub(x, p), sub(x, p)))
+                .fold(f64::INFINITY, f64::min);
+            assert_eq!(got, want, "query {p:?}");
+            if far > 1e155 {
+                // Every squared distance overflows, as the box's does: no
+                // cell can be nearer, none is looked at.
+                assert_eq!(rings, 0, "{rings} rings for {p:?}");
+            }
+        }
+    }
 
     #[test]
     fn nearest_point_search_equals_brute_force_on_a_flat_cloud() {
