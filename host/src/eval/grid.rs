@@ -153,9 +153,8 @@ impl Grid {
     /// The squared distance from `p` to the grid's box (0 inside it).
     fn box_dist2(&self, p: [f64; 3]) -> f64 {
         let mut d2 = 0.0;
-        for a in 0..3 {
-            let hi = self.min[a] + self.dims[a] as f64 * self.h;
-            let d = (self.min[a] - p[a]).max(p[a] - hi).max(0.0);
+        for ((&x, &lo), &n) in p.iter().zip(&self.min).zip(&self.dims) {
+            let d = (lo - x).max(x - (lo + n as f64 * self.h)).max(0.0);
             d2 += d * d;
         }
         d2
