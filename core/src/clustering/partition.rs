@@ -462,16 +462,7 @@ impl<'a> ClusterState<'a> {
             sweeps: self.sweeps,
         };
         let total = &mut self.stats.energy;
-        repartition(
-            arena,
-            ctx,
-            &mut st,
-            grown,
-            Start::Warm,
-            None,
-            total,
-            &*progress,
-        )?;
+        repartition(arena, ctx, &mut st, grown, Start::Warm, total, &*progress)?;
         if let Some(params) = params {
             let planned = self.stats.passes + params.split_iterations.max(1);
             passes(
@@ -553,16 +544,7 @@ pub fn try_cluster_state_in<'a>(
         sweeps,
     };
     let total = &mut stats.energy;
-    repartition(
-        arena,
-        &ctx,
-        &mut st,
-        m,
-        Start::Fresh,
-        None,
-        total,
-        &*progress,
-    )?;
+    repartition(arena, &ctx, &mut st, m, Start::Fresh, total, &*progress)?;
     let pass = |st: &mut State,
                 m: usize,
                 count: u32,
@@ -605,16 +587,7 @@ pub fn try_cluster_state_in<'a>(
             }
             let grown = m + added;
             let total = &mut stats.energy;
-            repartition(
-                arena,
-                &ctx,
-                &mut st,
-                grown,
-                Start::Warm,
-                None,
-                total,
-                &*progress,
-            )?;
+            repartition(arena, &ctx, &mut st, grown, Start::Warm, total, &*progress)?;
             if relax {
                 pass(
                     &mut st,
@@ -650,16 +623,7 @@ pub fn try_cluster_state_in<'a>(
                     st.border.fill(1);
                 } else {
                     let total = &mut stats.energy;
-                    repartition(
-                        arena,
-                        &ctx,
-                        &mut st,
-                        m,
-                        Start::Warm,
-                        None,
-                        total,
-                        &*progress,
-                    )?;
+                    repartition(arena, &ctx, &mut st, m, Start::Warm, total, &*progress)?;
                 }
                 stats.rejected_batches += 1;
                 if relax {
@@ -716,8 +680,22 @@ struct State<'x> {
 /// `arena`): by sweeps from `start`, or by region growing (always from the
 /// seeds alone), which also sets `energy` (sweeps leave it to [`energy`],
 /// once at the end: it would cost a pass over the points).
-#[allow(clippy::too_many_arguments)]
 fn repartition(
+    arena: &Arena,
+    ctx: &Ctx,
+    st: &mut State,
+    m: usize,
+    start: Start,
+    energy: &mut f64,
+    hooks: &dyn Progress,
+) -> Result<()> {
+    repartition_knowing(arena, ctx, st, m, start, None, energy, hooks)
+}
+
+/// [`repartition`], with each point's cost to its cluster's generator known
+/// (`own`, as [`update`] leaves it) for region growing to look up.
+#[allow(clippy::too_many_arguments)]
+fn repartition_knowing(
     arena: &Arena,
     ctx: &Ctx,
     st: &mut State,
@@ -791,7 +769,7 @@ fn passes(
                 break;
             }
             let own = Some(&*own).filter(|o| !o.is_empty());
-            repartition(
+            repartition_knowing(
                 arena,
                 ctx,
                 st,
