@@ -17,13 +17,15 @@
 //! (the base of a scanned figure, a patch the scanner never saw) has a rim
 //! where the data ends, and a generator there changes nothing but the time.
 //!
-//! Memory: none. Cost: O(faces × samples × walk length × k) plus O(k²) per
+//! Memory: one entry per face (scratch, the caller's). Cost: O(faces × samples × walk length × k) plus O(k²) per
 //! offered point.
 
 use crate::clustering::knn::Neighbours;
 use crate::clustering::quadric::Planes;
 use crate::math::{dist2, dot, norm, sub, V3};
 use crate::meshing::candidates::Members;
+use crate::parallel;
+use crate::progress::Progress;
 
 /// How far beyond the refinement distance a face must be from the data to
 /// span a gap: the vertices of CAD models leave their flat faces unsampled
@@ -87,74 +89,108 @@ fn descend(points: &[V3], nb: &Neighbours, start: u32, q: V3) -> Option<(f32, u3
     Some((best, at))
 }
 
+/// What [`faces_over_gaps`] needs besides the faces.
+pub(super) struct GapSearch<'a> {
+    /// The points.
+    pub points: &'a [V3],
+    /// Their k-NN graph.
+    pub nb: &'a Neighbours<'a>,
+    /// Their tangent planes.
+    pub planes: &'a Planes<'a>,
+    /// The points of each cluster.
+    pub members: &'a Members<'a>,
+    /// The mesh's vertices.
+    pub vertices: &'a [V3],
+    /// The cluster of each vertex.
+    pub vertex_cluster: &'a [u32],
+}
+
 /// For every face farther than `bound` from the data at some sample, where
 /// the data goes on past the rim there, the point its farthest sample's walk
 /// ended at is offered to `offer` with that distance and the cluster whose
-/// walk found it (faces in order; the caller keeps what it wants).
-#[allow(clippy::too_many_arguments)]
+/// walk found it (faces in order; the caller keeps what it wants). The faces
+/// are searched in parallel tasks, `found` holding one entry per face
+/// (scratch, at least as long as `triangles`); the offers come after, in
+/// face order, so they do not depend on the threads.
 pub(super) fn faces_over_gaps(
-    points: &[V3],
-    nb: &Neighbours,
-    planes: &Planes,
-    members: &Members,
-    vertices: &[V3],
+    search: &GapSearch,
     triangles: &[[u32; 3]],
-    vertex_cluster: &[u32],
     bound: f32,
+    found: &mut [Option<(u32, f32, u32)>],
+    hooks: &dyn Progress,
     mut offer: impl FnMut(u32, f32, u32),
 ) {
-    let bound2 = bound * bound;
-    for t in triangles {
-        let (Some(&a), Some(&b), Some(&c)) = (
-            vertices.get(t[0] as usize),
-            vertices.get(t[1] as usize),
-            vertices.get(t[2] as usize),
-        ) else {
-            continue;
-        };
-        // (squared distance, end point, cluster walked from, sample)
-        let mut worst: Option<(f32, u32, u32, V3)> = None;
-        // The nearest point of the last sample, where the next walk starts.
-        let mut last: Option<(f32, u32, u32)> = None;
-        for w in SAMPLES {
-            let q = [0, 1, 2].map(|i| w[0] * a[i] + w[1] * b[i] + w[2] * c[i]);
-            // The nearest of the walks from the last sample's nearest point
-            // and from a point of the cluster of each corner with the most
-            // weight in the sample (all three at the centroid).
-            let heaviest = w[0].max(w[1]).max(w[2]);
-            let from_last = last.and_then(|(_, p, cl)| {
-                let (e, p) = descend(points, nb, p, q)?;
-                Some((e, p, cl))
-            });
-            let near = t
-                .iter()
-                .zip(w)
-                .filter(|&(_, x)| x == heaviest)
-                .filter_map(|(&v, _)| vertex_cluster.get(v as usize))
-                .filter(|&&cl| (cl as usize) < members.len())
-                .filter_map(|&cl| {
-                    let first = *members.of(cl as usize).first()?;
-                    let (e, p) = descend(points, nb, first, q)?;
-                    Some((e, p, cl))
-                })
-                .chain(from_last)
-                .fold(None, |m: Option<(f32, u32, u32)>, x| match m {
-                    Some(y) if y.0 <= x.0 => m,
-                    _ => Some(x),
-                });
-            last = near;
-            if let Some((e, p, cl)) = near {
-                if e > bound2 && worst.is_none_or(|y| e > y.0) {
-                    worst = Some((e, p, cl, q));
-                }
-            }
+    let n = triangles.len().min(found.len());
+    let found = &mut found[..n];
+    parallel::rows(hooks, found, 1, |items, rows| {
+        for (f, row) in items.zip(rows.iter_mut()) {
+            *row = face_over_gap(search, &triangles[f], bound);
         }
-        if let Some((e, p, cl, q)) = worst {
-            if off_tangent(points, planes, p, q) && goes_on(points, nb, planes, p, q) {
-                offer(cl, libm::sqrtf(e), p);
+    });
+    for &(cl, e, p) in found.iter().flatten() {
+        offer(cl, e, p);
+    }
+}
+
+/// [`faces_over_gaps`] for one face: the (cluster, distance, rim point) it
+/// offers, if any.
+fn face_over_gap(search: &GapSearch, t: &[u32; 3], bound: f32) -> Option<(u32, f32, u32)> {
+    let GapSearch {
+        points,
+        nb,
+        planes,
+        members,
+        vertices,
+        vertex_cluster,
+    } = *search;
+    let bound2 = bound * bound;
+    let (Some(&a), Some(&b), Some(&c)) = (
+        vertices.get(t[0] as usize),
+        vertices.get(t[1] as usize),
+        vertices.get(t[2] as usize),
+    ) else {
+        return None;
+    };
+    // (squared distance, end point, cluster walked from, sample)
+    let mut worst: Option<(f32, u32, u32, V3)> = None;
+    // The nearest point of the last sample, where the next walk starts.
+    let mut last: Option<(f32, u32, u32)> = None;
+    for w in SAMPLES {
+        let q = [0, 1, 2].map(|i| w[0] * a[i] + w[1] * b[i] + w[2] * c[i]);
+        // The nearest of the walks from the last sample's nearest point
+        // and from a point of the cluster of each corner with the most
+        // weight in the sample (all three at the centroid).
+        let heaviest = w[0].max(w[1]).max(w[2]);
+        let from_last = last.and_then(|(_, p, cl)| {
+            let (e, p) = descend(points, nb, p, q)?;
+            Some((e, p, cl))
+        });
+        let near = t
+            .iter()
+            .zip(w)
+            .filter(|&(_, x)| x == heaviest)
+            .filter_map(|(&v, _)| vertex_cluster.get(v as usize))
+            .filter(|&&cl| (cl as usize) < members.len())
+            .filter_map(|&cl| {
+                let first = *members.of(cl as usize).first()?;
+                let (e, p) = descend(points, nb, first, q)?;
+                Some((e, p, cl))
+            })
+            .chain(from_last)
+            .fold(None, |m: Option<(f32, u32, u32)>, x| match m {
+                Some(y) if y.0 <= x.0 => m,
+                _ => Some(x),
+            });
+        last = near;
+        if let Some((e, p, cl)) = near {
+            if e > bound2 && worst.is_none_or(|y| e > y.0) {
+                worst = Some((e, p, cl, q));
             }
         }
     }
+    let (e, p, cl, q) = worst?;
+    (off_tangent(points, planes, p, q) && goes_on(points, nb, planes, p, q))
+        .then(|| (cl, libm::sqrtf(e), p))
 }
 
 /// Whether sample `q` lies off the tangent plane of rim point `p` by at least
@@ -254,16 +290,21 @@ mod tests {
             start: &[0, 1, 2, 3],
             list: &list,
         };
+        let search = GapSearch {
+            points,
+            nb: &nb,
+            planes: &planes,
+            members: &members,
+            vertices: &face,
+            vertex_cluster: &[0, 1, 2],
+        };
         let mut out = Vec::new();
         faces_over_gaps(
-            points,
-            &nb,
-            &planes,
-            &members,
-            &face,
+            &search,
             &[[0, 1, 2]],
-            &[0, 1, 2],
             bound,
+            &mut [None],
+            &Silent,
             |_, _, p| out.push(p),
         );
         out

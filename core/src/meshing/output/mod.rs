@@ -633,23 +633,26 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
         // cluster without a far point gets a generator after those.
         let gap = s.try_alloc_slice::<(f32, u32)>(members.len(), (0.0, u32::MAX))?;
         if max_distance.is_finite() {
-            gaps::faces_over_gaps(
+            let search = gaps::GapSearch {
                 points,
                 nb,
                 planes,
                 members,
                 vertices,
-                triangles,
                 vertex_cluster,
-                gaps::GAP_SPAN * max_distance,
-                |cl, e, p| {
+            };
+            s.scratch(|t| -> Result<()> {
+                let found = t.try_alloc_slice::<Option<(u32, f32, u32)>>(nf, None)?;
+                let bound = gaps::GAP_SPAN * max_distance;
+                gaps::faces_over_gaps(&search, triangles, bound, found, hooks, |cl, e, p| {
                     if let Some(g) = gap.get_mut(cl as usize) {
                         if e > g.0 {
                             *g = (e, p);
                         }
                     }
-                },
-            );
+                });
+                Ok(())
+            })?;
         }
         // A round for the genus lists only the rims of gaps.
         let far_points = !matches!(output, Output::IfNoGaps { .. });
