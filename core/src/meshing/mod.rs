@@ -99,11 +99,7 @@ pub(crate) fn try_mesh_round_in<'a>(
         let nf = cand.facets.len();
         tick(progress, Stage::Selection, 0, nf as u64)?;
         let input = p.selection.input(params.node_limit);
-        let mut cancelled = false;
-        let (selected, sel) = select::try_select_in(s, &input, &mut |done, total| {
-            cancelled = tick(progress, Stage::Selection, done, total).is_err();
-            !cancelled
-        })?;
+        let (selected, sel) = select::try_select_with_in(s, &input, &mut *progress)?;
         tick(progress, Stage::Output, 0, 1)?;
         let (mesh, mesh_stats) = output::try_mesh_in(
             arena, s, points, nb, planes, &cand, &members, selected, gens, p.open, p.moved,

@@ -6,6 +6,10 @@
 
 use super::solver::{Solver, ON, UNDECIDED};
 use super::{MAX_CONSTRAINTS, UNUSED};
+use crate::arena::Alloc;
+use crate::error::Result;
+use crate::parallel;
+use crate::progress::Progress;
 
 /// A re-split that moves no share by more than this (relative to the mean |score|
 /// of the component) is not propagated to the facet's edges.
@@ -20,6 +24,97 @@ const SWEEPS_PER_COOLING: u32 = 10;
 const MIN_TEMPERATURE: f64 = 1e-4;
 /// Root sweeps between two runs of the rounding heuristic.
 const SWEEPS_PER_ROUNDING: u32 = 5;
+/// Facets of a colour class from which a smoothed sweep computes their shares
+/// in parallel tasks (fewer: on the calling thread; the shares are the same).
+pub(super) const PARALLEL_CLASS: usize = 64;
+
+/// The colour classes of a component's facets for the smoothed sweeps: no
+/// two facets of a class share a constraint, so the new shares of a class's
+/// facets depend only on the other classes' and can be computed in any order,
+/// on any threads. Classes by greedy colouring in facet order, smallest colour
+/// first. Scratch of 4 words per facet.
+pub(super) struct Sweeps<'a> {
+    /// Per facet, its colour (meaningful for the component coloured last).
+    colour: &'a mut [u32],
+    /// The component's facets by colour, in facet order within a colour.
+    order: &'a mut [u32],
+    /// Class `c` is `order[class_start[c]..class_start[c + 1]]`.
+    class_start: &'a mut [u32],
+    /// Per colour, the last facet that saw it on a neighbour (greedy colouring).
+    stamp: &'a mut [u32],
+    /// Colours in use.
+    classes: usize,
+}
+
+impl<'a> Sweeps<'a> {
+    /// Room for the colour classes of up to `facets` facets, in `scratch`.
+    pub(super) fn try_new_in<'b, A: Alloc<'b>>(scratch: &'a A, facets: usize) -> Result<Self> {
+        Ok(Sweeps {
+            colour: scratch.try_alloc_slice(facets, u32::MAX)?,
+            order: scratch.try_alloc_slice(facets, 0u32)?,
+            class_start: scratch.try_alloc_slice(facets + 1, 0u32)?,
+            stamp: scratch.try_alloc_slice(facets + 1, u32::MAX)?,
+            classes: 0,
+        })
+    }
+
+    /// The facets of colour class `c` (of [`Sweeps::classes`]).
+    #[cfg(test)]
+    pub(super) fn class(&self, c: usize) -> &[u32] {
+        &self.order[self.class_start[c] as usize..self.class_start[c + 1] as usize]
+    }
+
+    /// The number of colour classes.
+    #[cfg(test)]
+    pub(super) fn classes(&self) -> usize {
+        self.classes
+    }
+
+    /// Colour `facets` (one component, ascending) greedily: each takes the
+    /// smallest colour none of the facets sharing a constraint with it has
+    /// taken. O(Σ over its facets of their constraints' facets).
+    pub(super) fn colour(&mut self, solver: &Solver, facets: &[u32]) {
+        for &f in facets {
+            self.colour[f as usize] = u32::MAX;
+        }
+        self.classes = 0;
+        for &f in facets {
+            let f = f as usize;
+            for &e in solver.edges_of(f) {
+                for k in solver.edge_span(e as usize) {
+                    let c = self.colour[solver.facet_of(solver.edge_incidences[k])];
+                    if let Some(s) = self.stamp.get_mut(c as usize) {
+                        *s = f as u32;
+                    }
+                }
+            }
+            let c = (0..self.stamp.len())
+                .find(|&c| self.stamp[c] != f as u32)
+                .unwrap_or(0);
+            self.colour[f] = c as u32;
+            self.classes = self.classes.max(c + 1);
+        }
+        // Counting sort by colour, facet order kept within a colour.
+        let classes = self.classes;
+        self.class_start[..=classes].fill(0);
+        for &f in facets {
+            self.class_start[self.colour[f as usize] as usize + 1] += 1;
+        }
+        for c in 0..classes {
+            self.class_start[c + 1] += self.class_start[c];
+        }
+        for &f in facets {
+            let c = self.colour[f as usize] as usize;
+            self.order[self.class_start[c] as usize] = f;
+            self.class_start[c] += 1;
+        }
+        for c in (0..classes).rev() {
+            self.class_start[c + 1] = self.class_start[c];
+        }
+        self.class_start[0] = 0;
+        self.stamp[..=classes].fill(u32::MAX);
+    }
+}
 
 /// Best value of one edge alone: the maximum over degrees `d` allowed by `mask`
 /// with `selected ≤ d ≤ selected + undecided` of the sum of the `d − selected`
@@ -442,115 +537,186 @@ impl Solver<'_> {
         self.refresh_stale_marginals();
     }
 
-    /// One coordinate-descent sweep over all facets on the dual smoothed at
-    /// `temperature`: each edge's max becomes `temperature · log Σ exp(value /
-    /// temperature)` over its allowed choices, which makes the dual smooth, so the
-    /// descent cannot stall at a kink. Leaves the caches stale (refresh after).
-    fn smoothed_sweep(&mut self, facets: &[u32], temperature: f64) {
-        for &f in facets {
-            let f = f as usize;
-            if self.facet_state[f] != UNDECIDED {
-                continue;
-            }
-            let mut on_minus_off = [0.0f64; MAX_CONSTRAINTS];
-            let mut finite = true;
-            let incidences = self.facet_incidences(f);
-            for (slot, own) in on_minus_off.iter_mut().zip(incidences.clone()) {
-                let e = self.incidence_edge[own] as usize;
-                let own = own as u32;
-                let mut top_other = f64::NEG_INFINITY;
-                for k in self.edge_span(e) {
-                    let x = self.edge_incidences[k];
-                    if x != own && self.facet_state[self.facet_of(x)] == UNDECIDED {
-                        top_other = top_other.max(self.shares[x as usize]);
+    /// One coordinate-descent sweep over the facets of the component coloured
+    /// in `sweeps`, colour class by colour class, on the dual smoothed at
+    /// `temperature` (see [`Solver::smoothed_shares`]): a class's new shares are
+    /// computed from the shares before it, then set. A large class is cut into
+    /// parts whose facets' shares fit in `buffer`, each computed in parallel
+    /// tasks run by `hooks` into it. Leaves the caches stale (refresh after).
+    fn smoothed_sweep(
+        &mut self,
+        sweeps: &mut Sweeps,
+        temperature: f64,
+        buffer: &mut [f64],
+        hooks: &dyn Progress,
+    ) {
+        for c in 0..sweeps.classes {
+            let class =
+                &sweeps.order[sweeps.class_start[c] as usize..sweeps.class_start[c + 1] as usize];
+            let mut i = 0;
+            while i < class.len() {
+                // The next part: facets class[i..j], their shares at
+                // buffer[at[t]..at[t + 1]] (`at` in `stamp`, free after colouring).
+                let (at, mut j, mut used) = (&mut *sweeps.stamp, i, 0usize);
+                at[0] = 0;
+                while j < class.len() {
+                    let n = self.facet_incidences(class[j] as usize).len();
+                    if used + n > buffer.len() {
+                        break;
                     }
+                    used += n;
+                    j += 1;
+                    at[j - i] = used as u32;
                 }
-                let shift = if top_other.is_finite() {
-                    top_other
-                } else {
-                    0.0
-                };
-                // Elementary symmetric sums of exp((λ − shift) / temperature) over
-                // the others, pairs from distinct classes only (a class's sum joins
-                // at its end); `sum1_other_classes` leaves out the class of `own`.
-                let (mut sum1, mut sum2, mut sum1_other_classes) = (0.0f64, 0.0f64, 0.0f64);
-                let (mut class_sum, mut previous) = (0.0f64, u32::MAX);
-                for k in self.edge_span(e) {
-                    let x = self.edge_incidences[k];
-                    if previous != u32::MAX && !self.same_class(previous, x) {
-                        sum2 += class_sum * sum1;
-                        sum1 += class_sum;
-                        if !self.same_class(previous, own) {
-                            sum1_other_classes += class_sum;
+                let part = &class[i..j];
+                if part.len() < PARALLEL_CLASS {
+                    // Small (or no room for one facet): one facet after another.
+                    let next = j.max(i + 1);
+                    for &f in &class[i..next] {
+                        let f = f as usize;
+                        if let Some(new) = self.smoothed_shares(f, temperature) {
+                            let incidences = self.facet_incidences(f);
+                            let n = incidences.len();
+                            self.shares[incidences].copy_from_slice(&new[..n]);
                         }
-                        class_sum = 0.0;
                     }
-                    previous = x;
-                    if x != own && self.facet_state[self.facet_of(x)] == UNDECIDED {
-                        class_sum += libm::exp((self.shares[x as usize] - shift) / temperature);
+                    i = next;
+                    continue;
+                }
+                let at = &at[..=part.len()];
+                let this = &*self;
+                parallel::segments(hooks, &mut buffer[..used], at, |items, out| {
+                    let offset = at[items.start];
+                    for t in items {
+                        let row =
+                            &mut out[(at[t] - offset) as usize..(at[t + 1] - offset) as usize];
+                        match this.smoothed_shares(part[t] as usize, temperature) {
+                            Some(new) => row.copy_from_slice(&new[..row.len()]),
+                            None => row.fill(f64::NAN),
+                        }
+                    }
+                });
+                for (t, &f) in part.iter().enumerate() {
+                    let new = &buffer[at[t] as usize..at[t + 1] as usize];
+                    if !new.iter().any(|v| v.is_nan()) {
+                        let incidences = self.facet_incidences(f as usize);
+                        self.shares[incidences].copy_from_slice(new);
                     }
                 }
-                if previous != u32::MAX {
+                i = j;
+            }
+        }
+    }
+
+    /// Coordinate descent on facet `f` on the dual smoothed at `temperature`:
+    /// each edge's max becomes `temperature · log Σ exp(value / temperature)`
+    /// over its allowed choices, which makes the dual smooth, so the descent
+    /// cannot stall at a kink. Returns `f`'s new shares, `None` for a decided
+    /// facet, an edge no choice satisfies, or shares that are not numbers (an
+    /// overflow). Reads only the shares of the other facets on `f`'s edges.
+    fn smoothed_shares(&self, f: usize, temperature: f64) -> Option<[f64; MAX_CONSTRAINTS]> {
+        if self.facet_state[f] != UNDECIDED {
+            return None;
+        }
+        let mut on_minus_off = [0.0f64; MAX_CONSTRAINTS];
+        let mut finite = true;
+        let incidences = self.facet_incidences(f);
+        for (slot, own) in on_minus_off.iter_mut().zip(incidences.clone()) {
+            let e = self.incidence_edge[own] as usize;
+            let own = own as u32;
+            let mut top_other = f64::NEG_INFINITY;
+            for k in self.edge_span(e) {
+                let x = self.edge_incidences[k];
+                if x != own && self.facet_state[self.facet_of(x)] == UNDECIDED {
+                    top_other = top_other.max(self.shares[x as usize]);
+                }
+            }
+            let shift = if top_other.is_finite() {
+                top_other
+            } else {
+                0.0
+            };
+            // Elementary symmetric sums of exp((λ − shift) / temperature) over
+            // the others, pairs from distinct classes only (a class's sum joins
+            // at its end); `sum1_other_classes` leaves out the class of `own`.
+            let (mut sum1, mut sum2, mut sum1_other_classes) = (0.0f64, 0.0f64, 0.0f64);
+            let (mut class_sum, mut previous) = (0.0f64, u32::MAX);
+            for k in self.edge_span(e) {
+                let x = self.edge_incidences[k];
+                if previous != u32::MAX && !self.same_class(previous, x) {
                     sum2 += class_sum * sum1;
                     sum1 += class_sum;
                     if !self.same_class(previous, own) {
                         sum1_other_classes += class_sum;
                     }
+                    class_sum = 0.0;
                 }
-                let EdgeCounts {
-                    selected,
-                    undecided,
-                    mask,
-                    penalty,
-                } = self.edge_counts(e);
-                // temperature · log Σ_k sums[k] exp((k shift − penalty [d = 1]) /
-                // temperature), over the degrees d = base + k allowed.
-                let soft_max = |base: u32, spare: u32, sums: [f64; 3]| -> f64 {
-                    let mut terms = [f64::NEG_INFINITY; 3];
-                    let mut highest = f64::NEG_INFINITY;
-                    let mut d = base;
-                    while d <= base.saturating_add(spare).min(2) {
-                        let k = (d - base) as usize;
-                        if (mask >> d) & 1 == 1 && sums[k] > 0.0 {
-                            let cost = if d == 1 { penalty } else { 0.0 };
-                            let t = libm::log(sums[k]) + (k as f64 * shift - cost) / temperature;
-                            terms[k] = t;
-                            highest = highest.max(t);
-                        }
-                        d += 1;
-                    }
-                    if !highest.is_finite() {
-                        return f64::NEG_INFINITY;
-                    }
-                    let z: f64 = terms
-                        .iter()
-                        .filter(|t| t.is_finite())
-                        .map(|&t| libm::exp(t - highest))
-                        .sum();
-                    temperature * (highest + libm::log(z))
-                };
-                let on = soft_max(selected + 1, undecided - 1, [1.0, sum1_other_classes, 0.0]);
-                let off = soft_max(selected, undecided - 1, [1.0, sum1, sum2]);
-                finite &= on.is_finite() && off.is_finite();
-                *slot = on - off;
+                previous = x;
+                if x != own && self.facet_state[self.facet_of(x)] == UNDECIDED {
+                    class_sum += libm::exp((self.shares[x as usize] - shift) / temperature);
+                }
             }
-            if finite {
-                let new =
-                    equalising_shares(self.scores[f] as f64, &on_minus_off[..incidences.len()]);
-                self.shares[incidences.clone()].copy_from_slice(&new[..incidences.len()]);
+            if previous != u32::MAX {
+                sum2 += class_sum * sum1;
+                sum1 += class_sum;
+                if !self.same_class(previous, own) {
+                    sum1_other_classes += class_sum;
+                }
             }
+            let EdgeCounts {
+                selected,
+                undecided,
+                mask,
+                penalty,
+            } = self.edge_counts(e);
+            // temperature · log Σ_k sums[k] exp((k shift − penalty [d = 1]) /
+            // temperature), over the degrees d = base + k allowed.
+            let soft_max = |base: u32, spare: u32, sums: [f64; 3]| -> f64 {
+                let mut terms = [f64::NEG_INFINITY; 3];
+                let mut highest = f64::NEG_INFINITY;
+                let mut d = base;
+                while d <= base.saturating_add(spare).min(2) {
+                    let k = (d - base) as usize;
+                    if (mask >> d) & 1 == 1 && sums[k] > 0.0 {
+                        let cost = if d == 1 { penalty } else { 0.0 };
+                        let t = libm::log(sums[k]) + (k as f64 * shift - cost) / temperature;
+                        terms[k] = t;
+                        highest = highest.max(t);
+                    }
+                    d += 1;
+                }
+                if !highest.is_finite() {
+                    return f64::NEG_INFINITY;
+                }
+                let z: f64 = terms
+                    .iter()
+                    .filter(|t| t.is_finite())
+                    .map(|&t| libm::exp(t - highest))
+                    .sum();
+                temperature * (highest + libm::log(z))
+            };
+            let on = soft_max(selected + 1, undecided - 1, [1.0, sum1_other_classes, 0.0]);
+            let off = soft_max(selected, undecided - 1, [1.0, sum1, sum2]);
+            finite &= on.is_finite() && off.is_finite();
+            *slot = on - off;
         }
+        let new = equalising_shares(self.scores[f] as f64, &on_minus_off[..incidences.len()]);
+        (finite && !new.iter().any(|v| v.is_nan())).then_some(new)
     }
 
     /// Coordinate descent at the component's root (problem open): smoothed sweeps
     /// with a falling temperature, then exact ones. Returns the lowest bound seen;
     /// improves `incumbent_value` by rounding, or exactly when the picks agree.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn root_bound(
         &mut self,
         facets: &[u32],
         edges: &[u32],
         incumbent_value: &mut f64,
         tolerance: f64,
+        sweeps: &mut Sweeps,
+        buffer: &mut [f64],
+        hooks: &dyn Progress,
     ) -> f64 {
         let mut lowest = f64::INFINITY;
         let mut temperature = ROOT_TEMPERATURE * self.score_scale;
@@ -584,7 +750,7 @@ impl Solver<'_> {
                 self.facet_queue.clear();
                 self.refresh_stale_marginals();
             } else {
-                self.smoothed_sweep(facets, temperature);
+                self.smoothed_sweep(sweeps, temperature, buffer, hooks);
                 self.refresh_all_edges(edges);
             }
         }

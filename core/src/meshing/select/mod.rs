@@ -53,7 +53,11 @@
 //!    by coordinate descent (one facet at a time, re-split so that its edges
 //!    value it equally: the exact minimiser for that facet), on a smoothed dual with
 //!    a falling temperature at the root, then locally, only where something changed,
-//!    at every node. Each edge caches the best shares of its three best classes
+//!    at every node. The root's sweeps go colour class by colour class (a greedy
+//!    colouring of the component's facets, no two of a class sharing a
+//!    constraint: 7 to 10 classes on the shared clouds), so a class's new shares
+//!    are independent of one another and a large class is computed in parallel
+//!    tasks ([`crate::parallel`]), with the same result on any threads. Each edge caches the best shares of its three best classes
 //!    (and the second best of the first two) and its term, so a node
 //!    costs work in proportion to what changed, plus one pass over the component.
 //!    When the edges of every facet agree, their picks are a feasible
@@ -84,7 +88,7 @@
 //! this file holds the public interface, the checks and the driver.
 //!
 //! ## Cost
-//! Memory: [`select_bytes_for`], about `65 F + 40 I + 100 E` bytes for `I` used
+//! Memory: [`select_bytes_for`], about `81 F + 40 I + 100 E` bytes for `I` used
 //! constraint slots (3 F to 6 F; [`select_bytes`] assumes 6 F), all from the arena,
 //! of which only the `F`-byte result is persistent. Time: O(F + E) for the checks,
 //! incidence, propagation and components; O(I) per root sweep (30 per component);
@@ -104,6 +108,8 @@ mod tests;
 
 use crate::arena::Alloc;
 use crate::error::{Error, Result};
+use crate::progress::{Flow, Progress, Stage};
+use bound::Sweeps;
 use incumbent::Neighbourhood;
 use propagate::{ComponentSpan, Components};
 use search::{Budget, Stack};
@@ -296,6 +302,10 @@ fn bytes_needed(facets: usize, edges: usize, incidences: usize) -> usize {
         array_bytes::<u32>(f),                   // stack trail marks
         array_bytes::<u8>(f),                    // stack branch flags
         array_bytes::<f64>(f),                   // stack bounds
+        array_bytes::<u32>(f),                   // sweeps: colour
+        array_bytes::<u32>(f),                   // sweeps: order
+        array_bytes::<u32>(f.saturating_add(1)), // sweeps: class starts
+        array_bytes::<u32>(f.saturating_add(1)), // sweeps: stamps
     ];
     list.iter().fold(0usize, |a, &b| a.saturating_add(b))
 }
@@ -386,11 +396,40 @@ pub fn try_select_in<'a, 'b, A: Alloc<'b>>(
     input: &SelectInput<'_>,
     progress: &mut dyn FnMut(u64, u64) -> bool,
 ) -> Result<(&'a mut [bool], SelectStats)> {
+    try_select_with_in(arena, input, &mut Callback(progress))
+}
+
+/// A `progress(done, total)` callback as a [`Progress`] that runs tasks one
+/// after another.
+struct Callback<'f>(&'f mut dyn FnMut(u64, u64) -> bool);
+
+impl Progress for Callback<'_> {
+    fn report(&mut self, _: Stage, done: u64, total: u64) -> Flow {
+        if (self.0)(done, total) {
+            Flow::Continue
+        } else {
+            Flow::Cancel
+        }
+    }
+}
+
+/// [`try_select_in`] reporting to `progress` (stage [`Stage::Selection`],
+/// facets settled of all) and running the parallel tasks of the smoothed
+/// sweeps through it. The selection does not depend on how it runs them.
+pub fn try_select_with_in<'a, 'b, A: Alloc<'b>>(
+    arena: &'a A,
+    input: &SelectInput<'_>,
+    progress: &mut dyn Progress,
+) -> Result<(&'a mut [bool], SelectStats)> {
     validate(input)?;
     let selection = arena.try_alloc_slice(input.facet_edges.len(), false)?;
-    if !progress(0, selection.len() as u64) {
-        return Err(Error::Cancelled);
-    }
+    let report = |progress: &mut dyn Progress, done: u64, total: u64| -> Result<()> {
+        match progress.report(Stage::Selection, done, total) {
+            Flow::Continue => Ok(()),
+            Flow::Cancel => Err(Error::Cancelled),
+        }
+    };
+    report(progress, 0, selection.len() as u64)?;
     let stats = arena.scratch(|scratch| -> Result<SelectStats> {
         let facet_count = input.facet_edges.len();
         let edge_count = input.edge_count;
@@ -399,6 +438,7 @@ pub fn try_select_in<'a, 'b, A: Alloc<'b>>(
         let mut ball = Neighbourhood::try_new_in(scratch, facet_count, edge_count)?;
         let mut components = Components::try_new_in(scratch, facet_count, edge_count)?;
         let mut stack = Stack::try_new_in(scratch, facet_count)?;
+        let mut sweeps = Sweeps::try_new_in(scratch, facet_count)?;
 
         let mut stats = SelectStats {
             forced: solver.propagate_root(),
@@ -418,17 +458,19 @@ pub fn try_select_in<'a, 'b, A: Alloc<'b>>(
         let mut optimal = true;
         for span in components.spans[..spans].iter() {
             let facets = components.facets_of(span);
-            let mut report = || progress(done, total);
             let mut budget = Budget {
                 nodes_left,
                 nodes_used: stats.nodes,
-                report: &mut report,
+                progress: &mut *progress,
+                done,
+                total,
             };
             let solved = solver.solve_component(
                 facets,
                 components.edges_of(span),
                 &mut stack,
                 &mut ball,
+                &mut sweeps,
                 &mut budget,
             )?;
             nodes_left = budget.nodes_left;
@@ -437,9 +479,7 @@ pub fn try_select_in<'a, 'b, A: Alloc<'b>>(
             stats.objective += solved.objective;
             stats.upper_bound += solved.upper_bound;
             done += facets.len() as u64;
-            if !progress(done, total) {
-                return Err(Error::Cancelled);
-            }
+            report(progress, done, total)?;
         }
         stats.optimal = optimal;
         if optimal {

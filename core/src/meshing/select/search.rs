@@ -6,11 +6,13 @@
 //! [`NODE_RESPLITS`] re-splits, and the same for each probed child with
 //! [`PROBE_RESPLITS`].
 
+use super::bound::Sweeps;
 use super::bound::MIN_SHARE_MOVE;
 use super::incumbent::Neighbourhood;
 use super::solver::{Solver, UNDECIDED};
 use crate::arena::Alloc;
 use crate::error::{Error, Result};
+use crate::progress::{Flow, Progress, Stage};
 
 /// Facet re-splits per search node at most.
 const NODE_RESPLITS: usize = 512;
@@ -43,6 +45,12 @@ pub(super) struct Stack<'a> {
 }
 
 impl<'a> Stack<'a> {
+    /// Scratch for the smoothed sweeps while no search runs (a search fills
+    /// the stack afresh): one share per facet of the component.
+    pub(super) fn sweep_buffer(&mut self) -> &mut [f64] {
+        self.bounds
+    }
+
     /// An empty stack of up to `facets` levels, in `scratch`.
     pub(super) fn try_new_in<'b, A: Alloc<'b>>(scratch: &'a A, facets: usize) -> Result<Self> {
         Ok(Stack {
@@ -55,14 +63,29 @@ impl<'a> Stack<'a> {
     }
 }
 
-/// Where a search draws its nodes from and reports its progress.
+/// Where a search draws its nodes from, reports its progress and runs its
+/// parallel tasks.
 pub(super) struct Budget<'r> {
     /// Nodes the search may still use.
     pub(super) nodes_left: u64,
     /// Nodes used so far in the run (reported every [`NODES_PER_REPORT`]).
     pub(super) nodes_used: u64,
-    /// Told of progress; `false` cancels the run.
-    pub(super) report: &'r mut dyn FnMut() -> bool,
+    /// Told of progress (facets settled: `done` of `total`); a cancel request
+    /// stops the run. Runs the parallel tasks of the smoothed sweeps.
+    pub(super) progress: &'r mut dyn Progress,
+    /// Facets settled before the current component.
+    pub(super) done: u64,
+    /// Facets in all.
+    pub(super) total: u64,
+}
+
+impl Budget<'_> {
+    /// Report progress; `false` when the run is to stop.
+    pub(super) fn report(&mut self) -> bool {
+        self.progress
+            .report(Stage::Selection, self.done, self.total)
+            == Flow::Continue
+    }
 }
 
 /// What solving one component gave.
@@ -78,7 +101,8 @@ pub(super) struct Solved {
 
 impl Solver<'_> {
     /// Solve one component (no problem open): a dive and piece dropping, the root
-    /// bound, and unless that proves the incumbent, another dive, the
+    /// bound (its smoothed sweeps colour class by colour class in `sweeps`, in
+    /// parallel tasks of `budget`'s progress), and unless that proves the incumbent, another dive, the
     /// neighbourhood search and the search, within `budget`. The incumbent on
     /// the component's facets is left in `incumbent`.
     pub(super) fn solve_component(
@@ -87,6 +111,7 @@ impl Solver<'_> {
         edges: &[u32],
         stack: &mut Stack<'_>,
         ball: &mut Neighbourhood<'_>,
+        sweeps: &mut Sweeps<'_>,
         budget: &mut Budget<'_>,
     ) -> Result<Solved> {
         let total_abs_score = facets
@@ -103,7 +128,16 @@ impl Solver<'_> {
         }
         incumbent_value += self.drop_incumbent_pieces(facets);
         self.open_problem(facets, edges);
-        let root_bound = self.root_bound(facets, edges, &mut incumbent_value, tolerance);
+        sweeps.colour(self, facets);
+        let root_bound = self.root_bound(
+            facets,
+            edges,
+            &mut incumbent_value,
+            tolerance,
+            sweeps,
+            stack.sweep_buffer(),
+            &*budget.progress,
+        );
         self.close_problem(facets, edges);
         if root_bound <= incumbent_value + tolerance {
             return Ok(Solved {
@@ -318,7 +352,7 @@ impl Solver<'_> {
             }
             budget.nodes_left -= 1;
             budget.nodes_used += 1;
-            if budget.nodes_used % NODES_PER_REPORT == 0 && !(budget.report)() {
+            if budget.nodes_used % NODES_PER_REPORT == 0 && !budget.report() {
                 break Err(Error::Cancelled);
             }
             if let Some((f, on, bound)) =

@@ -4,6 +4,7 @@
 extern crate std;
 use super::*;
 use crate::arena::Arena;
+use bound::Sweeps;
 use core::mem::MaybeUninit;
 use std::vec;
 use std::vec::Vec;
@@ -657,4 +658,82 @@ fn a_small_arena_is_exhausted_not_a_panic() {
         let e = try_select_in(&arena, &input, &mut |_, _| true).unwrap_err();
         assert!(matches!(e, Error::Exhausted(_)), "{n}: {e:?}");
     }
+}
+
+/// The candidate facets of a `side` x `side` grid of quads, each quad with
+/// both diagonals (four triangles, two on each), and scores that vary.
+fn crossed_grid(side: u32) -> (Mesh, Vec<f32>) {
+    let at = |i: u32, j: u32| i * (side + 1) + j;
+    let mut tris = Vec::new();
+    for i in 0..side {
+        for j in 0..side {
+            let (a, b, c, d) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+            tris.extend([[a, b, c], [a, c, d], [a, b, d], [b, c, d]]);
+        }
+    }
+    let m = mesh(&tris);
+    let scores = (0..m.facets.len())
+        .map(|f| ((f * 7919) % 1000) as f32 / 500.0 - 0.9)
+        .collect();
+    (m, scores)
+}
+
+#[test]
+fn colour_classes_hold_every_facet_once_and_no_two_that_share_a_constraint() {
+    let (m, scores) = crossed_grid(12);
+    let input = SelectInput::new(&m.facets, &scores, m.edges.len(), 0);
+    let mut buf = vec![MaybeUninit::<u8>::uninit(); select_bytes_for(&input)];
+    let arena = Arena::new(&mut buf);
+    let mut incumbent = vec![false; m.facets.len()];
+    let solver = Solver::try_new_in(&arena, &input, &mut incumbent).unwrap();
+    let mut sweeps = Sweeps::try_new_in(&arena, m.facets.len()).unwrap();
+    let all: Vec<u32> = (0..m.facets.len() as u32).collect();
+    sweeps.colour(&solver, &all);
+    let mut seen = vec![0u32; m.facets.len()];
+    let mut largest = 0;
+    for c in 0..sweeps.classes() {
+        let class = sweeps.class(c);
+        assert!(!class.is_empty(), "class {c} is empty");
+        assert!(
+            class.windows(2).all(|w| w[0] < w[1]),
+            "class {c} out of order"
+        );
+        largest = largest.max(class.len());
+        let mut used = vec![false; m.edges.len()];
+        for &f in class {
+            seen[f as usize] += 1;
+            for &e in m.facets[f as usize].iter().filter(|&&e| e != UNUSED) {
+                assert!(!used[e as usize], "two facets of class {c} share edge {e}");
+                used[e as usize] = true;
+            }
+        }
+    }
+    assert!(seen.iter().all(|&n| n == 1), "a facet missing or repeated");
+    // Large enough for the sweeps' parallel tasks.
+    assert!(largest >= bound::PARALLEL_CLASS, "largest class {largest}");
+}
+
+/// Runs the tasks last first.
+struct Backwards;
+
+impl Progress for Backwards {
+    fn report(&mut self, _: Stage, _: u64, _: u64) -> Flow {
+        Flow::Continue
+    }
+    fn run(&self, tasks: &mut [&mut dyn crate::parallel::Task]) {
+        tasks.iter_mut().rev().for_each(|t| t.run());
+    }
+}
+
+#[test]
+fn the_selection_does_not_depend_on_the_order_its_tasks_run_in() {
+    let (m, scores) = crossed_grid(12);
+    let input = SelectInput::new(&m.facets, &scores, m.edges.len(), 200);
+    let (forwards, stats) = run(&input);
+    let mut buf = vec![MaybeUninit::<u8>::uninit(); select_bytes_for(&input)];
+    let arena = Arena::new(&mut buf);
+    let (backwards, again) = try_select_with_in(&arena, &input, &mut Backwards).unwrap();
+    assert_eq!(forwards, backwards.to_vec());
+    assert_eq!(stats.objective.to_bits(), again.objective.to_bits());
+    assert_eq!(stats.upper_bound.to_bits(), again.upper_bound.to_bits());
 }
