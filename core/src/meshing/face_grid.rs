@@ -20,6 +20,24 @@ use crate::arena::Alloc;
 use crate::error::Result;
 use crate::math::point_triangle_dist2;
 use crate::math::V3;
+use crate::parallel;
+use crate::progress::Progress;
+use core::ops::Range;
+
+/// Pairs one task of [`FaceGrid::overlapping_pairs_where`] holds; past them,
+/// its cells are tested again on the calling thread.
+pub const PAIRS_PER_TASK: usize = 8;
+
+/// What one task of [`FaceGrid::overlapping_pairs_where`] found.
+#[derive(Default)]
+struct Found {
+    /// The first [`PAIRS_PER_TASK`] pairs.
+    pairs: [(u32, u32); PAIRS_PER_TASK],
+    /// Pairs found, also past the room.
+    len: usize,
+    /// More than [`PAIRS_PER_TASK`] were found.
+    overflow: bool,
+}
 
 /// Entries (face, cell) per face at most, on average.
 pub const ENTRIES_PER_FACE: usize = 8;
@@ -223,14 +241,66 @@ impl<'a> FaceGrid<'a> {
     /// boxes overlap (touching counts), in the order of the grid's cells. Each
     /// pair is reported in one cell only: the one holding the lowest corner of
     /// the two boxes' overlap. O(Σ over cells of its faces²).
-    pub fn for_each_overlapping_pair(&self, mut f: impl FnMut(u32, u32)) {
+    pub fn for_each_overlapping_pair(&self, f: impl FnMut(u32, u32)) {
+        self.pairs_in_cells(0..self.entries.len(), f);
+    }
+
+    /// The overlapping pairs that pass `test` (see
+    /// [`FaceGrid::for_each_overlapping_pair`]), tested in parallel tasks run
+    /// by `hooks`, each over the cells that begin in its share of the
+    /// entries, and handed to `found` after, in the order of the cells as
+    /// there. A task that finds more than [`PAIRS_PER_TASK`] has its cells
+    /// tested again on the calling thread. For rare pairs, such as crossing
+    /// faces.
+    pub fn overlapping_pairs_where(
+        &self,
+        hooks: &dyn Progress,
+        test: impl Fn(u32, u32) -> bool + Sync,
+        mut found: impl FnMut(u32, u32),
+    ) {
+        let n = self.entries.len();
+        let parts = parallel::ranges(hooks, n, |items| {
+            let mut part = Found::default();
+            self.pairs_in_cells(items, |a, b| {
+                if test(a, b) {
+                    match part.pairs.get_mut(part.len) {
+                        Some(slot) => *slot = (a, b),
+                        None => part.overflow = true,
+                    }
+                    part.len += 1;
+                }
+            });
+            part
+        });
+        for (t, part) in parts.iter().enumerate() {
+            if part.overflow {
+                self.pairs_in_cells(parallel::range(n, t), |a, b| {
+                    if test(a, b) {
+                        found(a, b)
+                    }
+                });
+            } else {
+                part.pairs[..part.len]
+                    .iter()
+                    .for_each(|&(a, b)| found(a, b));
+            }
+        }
+    }
+
+    /// [`FaceGrid::for_each_overlapping_pair`] over the cells whose first entry
+    /// is in `range` of the entries.
+    fn pairs_in_cells(&self, range: Range<usize>, mut f: impl FnMut(u32, u32)) {
         let boxed = |face: u32| {
             let t = self.faces.get(face as usize)?;
             Some(bbox(&corners(self.vertices, *t)?))
         };
-        let mut i = 0;
-        while i < self.entries.len() {
-            let key = self.entries[i] >> 32;
+        let key_at = |i: usize| self.entries[i] >> 32;
+        let mut i = range.start;
+        while i > 0 && i < range.end && key_at(i) == key_at(i - 1) {
+            i += 1;
+        }
+        while i < range.end {
+            let key = key_at(i);
             let run = self.entries[i..]
                 .iter()
                 .take_while(|&&e| e >> 32 == key)
@@ -504,6 +574,45 @@ mod tests {
         assert_eq!(got.len(), n, "a pair was reported twice");
         assert_eq!(got, want);
         assert!(want.len() > 20, "{}", want.len());
+    }
+
+    /// Runs the tasks last first.
+    struct Backwards;
+
+    impl crate::progress::Progress for Backwards {
+        fn report(&mut self, _: crate::progress::Stage, _: u64, _: u64) -> crate::progress::Flow {
+            crate::progress::Flow::Continue
+        }
+        fn run(&self, tasks: &mut [&mut dyn crate::parallel::Task]) {
+            tasks.iter_mut().rev().for_each(|t| t.run());
+        }
+    }
+
+    #[test]
+    fn pairs_tested_in_parallel_tasks_come_in_the_order_of_the_scan() {
+        let (v, f) = soup(5, 300);
+        let mut buf = vec![MaybeUninit::uninit(); 1 << 20];
+        let arena = Arena::new(&mut buf);
+        let grid = FaceGrid::try_new_in(&arena, &v, &f).unwrap();
+        // Few pairs pass (each task keeps them) and every pair passes (tasks
+        // overflow and their cells are scanned again).
+        for keep in [7u32, 1] {
+            let test = |a: u32, b: u32| (a + b) % keep == 0;
+            let mut want = Vec::new();
+            grid.for_each_overlapping_pair(|a, b| {
+                if test(a, b) {
+                    want.push((a, b))
+                }
+            });
+            let mut got = Vec::new();
+            grid.overlapping_pairs_where(&Backwards, test, |a, b| got.push((a, b)));
+            assert_eq!(got, want, "keep {keep}");
+            assert!(
+                want.len() > 2 * PAIRS_PER_TASK || keep > 1,
+                "{}",
+                want.len()
+            );
+        }
     }
 
     #[test]

@@ -28,6 +28,7 @@ use crate::error::Result;
 use crate::math::{closest_on_triangle, norm, sub, V3};
 use crate::meshing::candidates::Members;
 use crate::meshing::face_grid::FaceGrid;
+use crate::progress::Progress;
 
 /// How far above the planes' noise floor half a point's distance must be
 /// before its neighbours' tangent planes can vouch for it: on the bunny with
@@ -64,13 +65,18 @@ impl Growing<'_> {
     /// neighbour back home, again while that changes something (a face put
     /// back can meet one that moved), [`UNTANGLE_PASSES`] times at most.
     /// Returns the vertices moved and the face pairs still tangled after that.
-    pub fn untangle<'b, S: Alloc<'b>>(&mut self, s: &S) -> Result<(u32, u32)> {
+    /// `hooks` run the crossing tests' parallel tasks.
+    pub fn untangle<'b, S: Alloc<'b>>(
+        &mut self,
+        s: &S,
+        hooks: &dyn Progress,
+    ) -> Result<(u32, u32)> {
         let (nv, nf) = (self.nv, self.nf);
         let (vertices, triangles) = (&mut self.vertices[..nv], &self.triangles[..nf]);
         let home = &self.home[..nv];
         s.scratch(|t| -> Result<(u32, u32)> {
             let cut = t.try_alloc_slice::<bool>(nf, false)?;
-            let mut found = mark_tangles(t, triangles, vertices, cut)?;
+            let mut found = mark_tangles(t, triangles, vertices, cut, hooks)?;
             let mut back = 0;
             for _ in 0..UNTANGLE_PASSES {
                 if found == 0 {
@@ -91,7 +97,7 @@ impl Growing<'_> {
                 }
                 back += moved;
                 cut.fill(false);
-                found = mark_tangles(t, triangles, vertices, cut)?;
+                found = mark_tangles(t, triangles, vertices, cut, hooks)?;
             }
             Ok((back, found))
         })

@@ -332,7 +332,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             for (w, i) in (0..selected.len()).filter(|&i| keep[i]).enumerate() {
                 work.faces[w] = cand.facets[i];
             }
-            let repair = repair_selection(s, &mut work, nf0, generators, seam)?;
+            let repair = repair_selection(s, &mut work, nf0, generators, seam, hooks)?;
             if attempt == 0 && repair.repaired > 0 && repair.filled.left > 0 {
                 (attempt, first_left) = (1, repair.filled.left);
                 continue;
@@ -547,7 +547,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             // crossings: where they cross, they go back to their generators;
             // then where every vertex is becomes its home, the untangled
             // layout that added vertices are checked against.
-            let (back, _) = mesh.untangle(s)?;
+            let (back, _) = mesh.untangle(s, hooks)?;
             stats.fit.reverted += back;
             mesh.home[..nv].copy_from_slice(&mesh.vertices[..nv]);
             try_point_distances_in(
@@ -586,7 +586,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
         )?;
         // Then what repair could not resolve is counted on the final
         // positions (again only when a vertex went back: else it is the same).
-        let (back, tangled) = mesh.untangle(s)?;
+        let (back, tangled) = mesh.untangle(s, hooks)?;
         stats.fit.reverted += back;
         stats.tangled_pairs = tangled;
         // How far the data is from the final mesh; the farthest point of every
@@ -778,6 +778,7 @@ fn repair_selection<'b, S: Alloc<'b>>(
     nf: usize,
     generators: &[V3],
     seam: Seam,
+    hooks: &dyn Progress,
 ) -> Result<Repair> {
     let Workspace {
         faces,
@@ -828,7 +829,7 @@ fn repair_selection<'b, S: Alloc<'b>>(
             // neighbour are cut out and their holes closed again.
             if untangled < UNTANGLE_ROUNDS {
                 clash[..nf].fill(false);
-                let crossing = mark_tangles(s, &faces[..nf], generators, clash)?;
+                let crossing = mark_tangles(s, &faces[..nf], generators, clash, hooks)?;
                 if crossing > 0 {
                     untangled += 1;
                     nf = retain_unmarked(faces, nf, clash);

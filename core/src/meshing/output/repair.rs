@@ -10,18 +10,20 @@ use crate::math::{dist2, dot, sub, to_d3, V3};
 use crate::meshing::candidates::degenerate;
 use crate::meshing::face_grid::FaceGrid;
 use crate::meshing::intersect::{faces_intersect, folded};
+use crate::progress::Progress;
 use crate::union_find::UnionFind;
 
 /// Marks in `cut` both faces of every pair of `faces` (over `generators`) that
 /// intersect other than at what they share ([`faces_intersect`], exact), and
 /// of every edge whose two faces are folded onto each other ([`folded`]).
-/// Returns the pairs marked. Candidates come from a [`FaceGrid`]: O(F k) for
-/// k faces near a face, O(F) scratch.
+/// Returns the pairs marked. Candidates come from a [`FaceGrid`], tested in
+/// parallel tasks run by `hooks`: O(F k) for k faces near a face, O(F) scratch.
 pub(super) fn mark_tangles<'b, S: Alloc<'b>>(
     s: &S,
     faces: &[[u32; 3]],
     generators: &[V3],
     cut: &mut [bool],
+    hooks: &dyn Progress,
 ) -> Result<u32> {
     s.scratch(|t| {
         let at = |c: u32| to_d3(generators.get(c as usize).copied().unwrap_or([0.0; 3]));
@@ -36,12 +38,11 @@ pub(super) fn mark_tangles<'b, S: Alloc<'b>>(
             }
         };
         let grid = FaceGrid::try_new_in(t, generators, faces)?;
-        grid.for_each_overlapping_pair(|a, b| {
+        let crossing = |a: u32, b: u32| {
             let (fa, fb) = (faces[a as usize], faces[b as usize]);
-            if faces_intersect(fa, &corners(a), fb, &corners(b)) {
-                mark(a, b);
-            }
-        });
+            faces_intersect(fa, &corners(a), fb, &corners(b))
+        };
+        grid.overlapping_pairs_where(hooks, crossing, &mut mark);
         let table = edge_table(t, faces)?;
         let mut i = 0;
         while i < table.len() {
