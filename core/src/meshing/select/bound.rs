@@ -276,17 +276,21 @@ impl Solver<'_> {
         let mut best = [f64::NEG_INFINITY; 3];
         let mut second = [f64::NEG_INFINITY; 3];
         let mut best_at = [u32::MAX; 3];
-        let span = self.edge_span(e);
-        let mut k = span.start;
-        while k < span.end {
-            // One class: positions k..j.
-            let first = self.edge_incidences[k];
-            let mut j = k;
+        let incidences = &self.edge_incidences[self.edge_span(e)];
+        let mut k = 0;
+        while k < incidences.len() {
+            // One class: positions k..j (one incidence when it has no class).
+            let class = self.incidence_class[incidences[k] as usize];
+            let mut j = k + 1;
+            if class != UNUSED {
+                while j < incidences.len() && self.incidence_class[incidences[j] as usize] == class
+                {
+                    j += 1;
+                }
+            }
             let (mut class_best, mut class_second, mut class_best_at) =
                 (f64::NEG_INFINITY, f64::NEG_INFINITY, u32::MAX);
-            while j < span.end && self.same_class(first, self.edge_incidences[j]) {
-                let x = self.edge_incidences[j];
-                j += 1;
+            for &x in &incidences[k..j] {
                 if self.facet_state[self.facet_of(x)] != UNDECIDED {
                     continue;
                 }
