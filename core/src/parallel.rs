@@ -215,6 +215,79 @@ where
     jobs.map(|j| j.result)
 }
 
+/// A task over a range of items and the parts of three outputs they own.
+struct Triples<'a, A, B, C, R, F> {
+    f: &'a F,
+    items: Range<usize>,
+    a: &'a mut [A],
+    b: &'a mut [B],
+    c: &'a mut [C],
+    result: R,
+}
+
+impl<A, B, C, R, F> Task for Triples<'_, A, B, C, R, F>
+where
+    A: Send,
+    B: Send,
+    C: Send,
+    R: Send,
+    F: Fn(Range<usize>, &mut [A], &mut [B], &mut [C]) -> R + Sync,
+{
+    fn run(&mut self) {
+        self.result = (self.f)(self.items.clone(), self.a, self.b, self.c);
+    }
+}
+
+/// [`segments`] over three outputs: item `j` of `n` owns
+/// `a[ab_at(j)..ab_at(j + 1)]`, the same of `b`, and `c[c_at(j)..c_at(j +
+/// 1)]`; `f(items, a_part, b_part, c_part)` gets what `items` own, each part
+/// beginning at the entry of `items.start`. `ab_at` and `c_at` must not
+/// decrease; positions past an output's end are taken as its end. Returns
+/// each task's result, in task order.
+#[allow(clippy::too_many_arguments)]
+pub fn segments3<A, B, C, R, F>(
+    hooks: &dyn Progress,
+    a: &mut [A],
+    b: &mut [B],
+    c: &mut [C],
+    n: usize,
+    ab_at: impl Fn(usize) -> usize,
+    c_at: impl Fn(usize) -> usize,
+    f: F,
+) -> [R; TASKS]
+where
+    A: Send,
+    B: Send,
+    C: Send,
+    R: Send + Default,
+    F: Fn(Range<usize>, &mut [A], &mut [B], &mut [C]) -> R + Sync,
+{
+    let ab_len = a.len().min(b.len());
+    let (mut rest_a, mut rest_b, mut rest_c) = (&mut a[..ab_len], &mut b[..ab_len], c);
+    let (mut taken_ab, mut taken_c) = (0, 0);
+    let mut jobs: [Triples<A, B, C, R, F>; TASKS] = core::array::from_fn(|t| {
+        let items = range(n, t);
+        let end_ab = ab_at(items.end).min(ab_len).max(taken_ab);
+        let (a, tail_a) = core::mem::take(&mut rest_a).split_at_mut(end_ab - taken_ab);
+        let (b, tail_b) = core::mem::take(&mut rest_b).split_at_mut(end_ab - taken_ab);
+        let end_c = c_at(items.end).min(taken_c + rest_c.len()).max(taken_c);
+        let (c, tail_c) = core::mem::take(&mut rest_c).split_at_mut(end_c - taken_c);
+        (rest_a, rest_b, rest_c) = (tail_a, tail_b, tail_c);
+        (taken_ab, taken_c) = (end_ab, end_c);
+        Triples {
+            f: &f,
+            items,
+            a,
+            b,
+            c,
+            result: R::default(),
+        }
+    });
+    let mut tasks = jobs.each_mut().map(|j| j as &mut dyn Task);
+    hooks.run(&mut tasks);
+    jobs.map(|j| j.result)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -246,6 +319,45 @@ mod tests {
         assert_eq!(sums.iter().sum::<usize>(), 100);
         for (i, row) in out.chunks(3).enumerate() {
             assert!(row.iter().all(|&v| v == i as u32));
+        }
+    }
+
+    #[test]
+    fn segments3_hand_each_task_the_parts_its_items_own() {
+        // Item j owns j % 3 entries of a and b and one of c.
+        let n = 200;
+        let ab_at = |j: usize| (0..j).map(|i| i % 3).sum::<usize>();
+        let mut a = [0u32; 200];
+        let mut b = [0u64; 200];
+        let mut c = [0u8; 200];
+        let len = ab_at(n);
+        let counts = segments3(
+            &Silent,
+            &mut a[..len],
+            &mut b[..len],
+            &mut c[..n],
+            n,
+            ab_at,
+            |j| j,
+            |items, a: &mut [u32], b: &mut [u64], c: &mut [u8]| {
+                let base = ab_at(items.start);
+                assert_eq!(a.len(), ab_at(items.end) - base);
+                assert_eq!(c.len(), items.len());
+                for j in items.clone() {
+                    for k in ab_at(j)..ab_at(j + 1) {
+                        a[k - base] = j as u32;
+                        b[k - base] = j as u64;
+                    }
+                    c[j - items.start] = (j % 251) as u8;
+                }
+                items.len()
+            },
+        );
+        assert_eq!(counts.iter().sum::<usize>(), n);
+        for j in 0..n {
+            assert!(a[ab_at(j)..ab_at(j + 1)].iter().all(|&v| v == j as u32));
+            assert!(b[ab_at(j)..ab_at(j + 1)].iter().all(|&v| v == j as u64));
+            assert_eq!(c[j], (j % 251) as u8);
         }
     }
 }

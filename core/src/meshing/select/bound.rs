@@ -24,6 +24,9 @@ const SWEEPS_PER_COOLING: u32 = 10;
 const MIN_TEMPERATURE: f64 = 1e-4;
 /// Root sweeps between two runs of the rounding heuristic.
 const SWEEPS_PER_ROUNDING: u32 = 5;
+/// Edges of a problem from which refreshing all their caches computes them in
+/// parallel tasks (fewer: on the calling thread; the caches are the same).
+const PARALLEL_EDGES: usize = 256;
 /// Facets of a colour class from which a smoothed sweep computes their shares
 /// in parallel tasks (fewer: on the calling thread; the shares are the same).
 pub(super) const PARALLEL_CLASS: usize = 64;
@@ -268,8 +271,18 @@ impl Solver<'_> {
     }
 
     /// Recompute edge `e`'s best shares per class and its term from the state and
-    /// the shares. One pass: the incidences of a class are consecutive.
+    /// the shares.
     fn refresh_top_shares(&mut self, e: usize) {
+        let (term, at, top) = self.edge_top(e);
+        self.edge_terms[e] = term;
+        self.top_incidences[e] = at;
+        self.top_shares[e] = top;
+    }
+
+    /// Edge `e`'s term, top incidences and top shares (see
+    /// [`Solver::refresh_top_shares`]), from the state and the shares. One
+    /// pass: the incidences of a class are consecutive.
+    fn edge_top(&self, e: usize) -> (f64, [u32; 3], [f64; 5]) {
         let counts = self.edge_counts(e);
         // The best share of the three best classes, each class's second best, and
         // the incidences of the bests.
@@ -321,9 +334,11 @@ impl Solver<'_> {
                 (best[2], second[2], best_at[2]) = (class_best, class_second, class_best_at);
             }
         }
-        self.edge_terms[e] = counts.term(best[0], best[1]).0;
-        self.top_incidences[e] = best_at;
-        self.top_shares[e] = [best[0], best[1], best[2], second[0], second[1]];
+        (
+            counts.term(best[0], best[1]).0,
+            best_at,
+            [best[0], best[1], best[2], second[0], second[1]],
+        )
     }
 
     /// [`shares_without`] for incidence `x` of edge `e`.
@@ -363,6 +378,36 @@ impl Solver<'_> {
                 self.picked_by[f] &= !bit;
             }
         }
+    }
+
+    /// Facet `f`'s losses if forced on (`on`) and off (`off`), one per
+    /// incidence, from its edges' fresh top shares, as
+    /// [`Solver::refresh_marginals`] sets them; returns its `picked_by` bits.
+    fn facet_marginals(&self, f: usize, on: &mut [f64], off: &mut [f64]) -> u8 {
+        let mut picked = 0u8;
+        if self.facet_state[f] != UNDECIDED {
+            on.fill(0.0);
+            off.fill(0.0);
+            return picked;
+        }
+        for (i, x) in self.facet_incidences(f).enumerate() {
+            let e = self.incidence_edge[x] as usize;
+            let counts = self.edge_counts(e);
+            let (top_at, top) = (self.top_incidences[e], self.top_shares[e]);
+            let (term, taken) = counts.term(top[0], top[1]);
+            let (on_term, off_term) = self.forced_terms(e, x as u32, counts);
+            if top_at[..taken].contains(&(x as u32)) {
+                picked |= 1 << i;
+            }
+            let finite = term.is_finite();
+            on[i] = if finite {
+                term - (self.shares[x] + on_term)
+            } else {
+                0.0
+            };
+            off[i] = if finite { term - off_term } else { 0.0 };
+        }
+        picked
     }
 
     /// Recompute edge `e`'s whole cache.
@@ -409,16 +454,97 @@ impl Solver<'_> {
         self.facet_queue.clear();
     }
 
-    /// Refresh every edge of the current problem.
-    pub(super) fn refresh_all_edges(&mut self, edges: &[u32]) {
+    /// Refresh every edge of the current problem (`facets`, `edges`). For
+    /// many edges (both lists ascending), in parallel tasks run by `hooks`:
+    /// the edges' top shares, each task writing those of a range of edge ids,
+    /// then the marginals facet by facet, each task writing those of a range of
+    /// facet ids (every edge of a problem's facet is in the problem, and the
+    /// marginals of a facet outside it are never read). Else one edge after
+    /// another. The caches read are the same either way.
+    pub(super) fn refresh_all_edges(
+        &mut self,
+        facets: &[u32],
+        edges: &[u32],
+        hooks: &dyn Progress,
+    ) {
         self.drop_pending_updates();
-        for &e in edges {
-            self.refresh_edge(e as usize);
+        let ascending = |list: &[u32]| list.windows(2).all(|w| w[0] < w[1]);
+        let ends = (edges.first(), edges.last(), facets.first(), facets.last());
+        let (Some(&e_first), Some(&e_last), Some(&f_first), Some(&f_last)) = ends else {
+            for &e in edges {
+                self.refresh_edge(e as usize);
+            }
+            return;
+        };
+        if edges.len() < PARALLEL_EDGES || !ascending(edges) || !ascending(facets) {
+            for &e in edges {
+                self.refresh_edge(e as usize);
+            }
+            return;
         }
+        let (e0, e1) = (e_first as usize, e_last as usize + 1);
+        let terms = core::mem::take(&mut self.edge_terms);
+        let top_at = core::mem::take(&mut self.top_incidences);
+        let tops = core::mem::take(&mut self.top_shares);
+        let this = &*self;
+        let at = |j: usize| edges.get(j).map_or(e1, |&e| e as usize) - e0;
+        parallel::segments3(
+            hooks,
+            &mut terms[e0..e1],
+            &mut top_at[e0..e1],
+            &mut tops[e0..e1],
+            edges.len(),
+            at,
+            at,
+            |items, terms, top_at, tops| {
+                let base = at(items.start);
+                for j in items {
+                    let e = edges[j] as usize;
+                    let i = e - e0 - base;
+                    (terms[i], top_at[i], tops[i]) = this.edge_top(e);
+                }
+            },
+        );
+        (self.edge_terms, self.top_incidences, self.top_shares) = (terms, top_at, tops);
+        let (f0, f1) = (f_first as usize, f_last as usize + 1);
+        let (x0, x1) = (self.facet_start[f0] as usize, self.facet_start[f1] as usize);
+        let on = core::mem::take(&mut self.loss_if_on);
+        let off = core::mem::take(&mut self.loss_if_off);
+        let picked = core::mem::take(&mut self.picked_by);
+        let this = &*self;
+        let x_at = |j: usize| {
+            facets
+                .get(j)
+                .map_or(x1, |&f| this.facet_start[f as usize] as usize)
+                - x0
+        };
+        let f_at = |j: usize| facets.get(j).map_or(f1, |&f| f as usize) - f0;
+        parallel::segments3(
+            hooks,
+            &mut on[x0..x1],
+            &mut off[x0..x1],
+            &mut picked[f0..f1],
+            facets.len(),
+            x_at,
+            f_at,
+            |items, on, off, picked| {
+                let (base_x, base_f) = (x_at(items.start), f_at(items.start));
+                for j in items {
+                    let f = facets[j] as usize;
+                    let xs = this.facet_incidences(f);
+                    let lo = xs.start - x0 - base_x;
+                    let n = xs.len();
+                    picked[f - f0 - base_f] =
+                        this.facet_marginals(f, &mut on[lo..lo + n], &mut off[lo..lo + n]);
+                }
+            },
+        );
+        (self.loss_if_on, self.loss_if_off, self.picked_by) = (on, off, picked);
     }
 
-    /// Make (`facets`, `edges`) the current problem, with fresh caches.
-    pub(super) fn open_problem(&mut self, facets: &[u32], edges: &[u32]) {
+    /// Make (`facets`, `edges`) the current problem, with fresh caches (see
+    /// [`Solver::refresh_all_edges`] for `hooks`).
+    pub(super) fn open_problem(&mut self, facets: &[u32], edges: &[u32], hooks: &dyn Progress) {
         for &e in edges {
             self.edge_in_problem[e as usize] = true;
         }
@@ -430,7 +556,7 @@ impl Solver<'_> {
                 self.selected_score += self.scores[f] as f64;
             }
         }
-        self.refresh_all_edges(edges);
+        self.refresh_all_edges(facets, edges, hooks);
     }
 
     /// End the current problem (`facets`, `edges`); no edge waits for a refresh after.
@@ -755,7 +881,7 @@ impl Solver<'_> {
                 self.refresh_stale_marginals();
             } else {
                 self.smoothed_sweep(sweeps, temperature, buffer, hooks);
-                self.refresh_all_edges(edges);
+                self.refresh_all_edges(facets, edges, hooks);
             }
         }
         lowest

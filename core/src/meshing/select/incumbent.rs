@@ -8,6 +8,7 @@ use super::search::{Budget, Stack};
 use super::solver::{Solver, ON, UNDECIDED};
 use crate::arena::Alloc;
 use crate::error::Result;
+use crate::progress::Progress;
 
 /// Facets in one neighbourhood of the large-neighbourhood search, at first; a pass
 /// without gain doubles it, up to [`MAX_NEIGHBOURHOOD_SIZE`].
@@ -63,14 +64,16 @@ impl Solver<'_> {
     /// Greedy dive from the current state (opens the problem itself): take every
     /// facet all of whose edges pick it, else the facet whose forced selection
     /// lowers the bound least, falling back to "off" on conflict, until the picks
-    /// agree. Records and returns an improvement of `value_to_beat`.
+    /// agree. Records and returns an improvement of `value_to_beat`. `hooks`
+    /// run the refresh's parallel tasks.
     pub(super) fn dive(
         &mut self,
         facets: &[u32],
         edges: &[u32],
         value_to_beat: f64,
+        hooks: &dyn Progress,
     ) -> Option<f64> {
-        self.open_problem(facets, edges);
+        self.open_problem(facets, edges, hooks);
         let start_mark = self.trail_len;
         let mut found = None;
         loop {
@@ -294,7 +297,7 @@ impl Solver<'_> {
         let mut ball_size = NEIGHBOURHOOD_SIZE;
         for _ in 0..NEIGHBOURHOOD_PASSES {
             // Seeds: facets the bound's picks would set otherwise than the incumbent.
-            self.open_problem(facets, edges);
+            self.open_problem(facets, edges, &*budget.progress);
             for &f in facets {
                 let f = f as usize;
                 let incumbent_picks = if self.incumbent[f] {

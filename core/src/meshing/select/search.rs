@@ -123,11 +123,11 @@ impl Solver<'_> {
         self.min_share_move = MIN_SHARE_MOVE * self.score_scale;
         // The incumbent starts as "nothing" (worth 0, always feasible).
         let mut incumbent_value = 0.0f64;
-        if let Some(v) = self.dive(facets, edges, incumbent_value) {
+        if let Some(v) = self.dive(facets, edges, incumbent_value, &*budget.progress) {
             incumbent_value = v;
         }
         incumbent_value += self.drop_incumbent_pieces(facets);
-        self.open_problem(facets, edges);
+        self.open_problem(facets, edges, &*budget.progress);
         sweeps.colour(self, facets);
         let root_bound = self.root_bound(
             facets,
@@ -146,7 +146,7 @@ impl Solver<'_> {
                 upper_bound: incumbent_value,
             });
         }
-        if let Some(v) = self.dive(facets, edges, incumbent_value) {
+        if let Some(v) = self.dive(facets, edges, incumbent_value, &*budget.progress) {
             incumbent_value = v;
             incumbent_value += self.drop_incumbent_pieces(facets);
         }
@@ -334,7 +334,7 @@ impl Solver<'_> {
     ) -> Result<(bool, f64)> {
         let base_mark = self.trail_len;
         stack.depth = 0;
-        self.open_problem(facets, edges);
+        self.open_problem(facets, edges, &*budget.progress);
         let out = 'run: loop {
             if budget.nodes_left == 0 {
                 // Unexplored: the current node (under the top level) and the second
