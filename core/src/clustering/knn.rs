@@ -245,7 +245,8 @@ pub fn neighbours_bytes_for(
     };
     let rev =
         padded_bytes::<u32>(n.saturating_add(1)).saturating_add(padded_bytes::<u32>(reverse_edges));
-    let during_rev = rev.saturating_add(padded_bytes::<u32>(n));
+    // The reverse-only bits of every row and the fill's cursor.
+    let during_rev = rev.saturating_add(padded_bytes::<u32>(n).saturating_mul(2));
     let peak = knn.saturating_add(search.max(during_rev));
     (peak, knn.saturating_add(rev))
 }
@@ -276,7 +277,7 @@ pub fn try_neighbours_checked_in<'a>(
     tick(progress, Stage::Neighbours, 0, n as u64)?;
     let rows = try_knn_rows_in(arena, points, k, Stage::Neighbours, progress)?;
     let knn: &'a [u32] = rows.knn;
-    let (rev_start, rev) = reverse_edges_in(arena, knn, k, room)?;
+    let (rev_start, rev) = reverse_edges_in(arena, knn, k, room, &*progress)?;
 
     tick(progress, Stage::Neighbours, n as u64, n as u64)?;
     Ok(Neighbours {
@@ -446,7 +447,7 @@ pub fn try_neighbours_from_in<'a>(
         }
     }
     tick(progress, Stage::Neighbours, 0, n as u64)?;
-    let (rev_start, rev) = reverse_edges_in(arena, knn, k, room)?;
+    let (rev_start, rev) = reverse_edges_in(arena, knn, k, room, &*progress)?;
     tick(progress, Stage::Neighbours, n as u64, n as u64)?;
     Ok(Neighbours {
         k,
@@ -640,43 +641,61 @@ fn build_grid<'s>(
     Ok(grid)
 }
 
-/// Build the reverse-only edge table: two passes over the k-NN rows, O(n k^2).
+/// Build the reverse-only edge table: which of each row's neighbours do not
+/// list the point back, found once in parallel tasks run by `hooks` (a bit a
+/// neighbour, k ≤ 32), then two passes over those bits: O(n k^2) in the
+/// tasks, O(n k) on the calling thread. Scratch: two words a point.
 fn reverse_edges_in<'a>(
     arena: &'a Arena,
     knn: &[u32],
     k: usize,
     room: &dyn Fn(usize) -> Result<()>,
+    hooks: &dyn Progress,
 ) -> Result<(&'a [u32], &'a [u32])> {
     let n = knn.len() / k;
     let rev_start = arena.try_alloc_slice::<u32>(n + 1, 0)?;
     let is_mutual = |i: usize, j: usize| knn[j * k..(j + 1) * k].contains(&(i as u32));
-    for i in 0..n {
-        for &j in &knn[i * k..(i + 1) * k] {
-            if !is_mutual(i, j as usize) {
-                rev_start[j as usize + 1] += 1;
-            }
-        }
-    }
-    for i in 0..n {
-        rev_start[i + 1] += rev_start[i];
-    }
-    let total = rev_start[n] as usize;
-    room(total)?;
-    let rev = arena.try_alloc_slice::<u32>(total, 0)?;
-    // Fill in increasing i, so each list comes out ascending. `cursor` reuses the
-    // scratch end of the arena.
-    arena.scratch(|s| -> Result<()> {
-        let cursor = s.try_alloc_copy::<u32>(&rev_start[..n])?;
-        for i in 0..n {
-            for &j in &knn[i * k..(i + 1) * k] {
-                if !is_mutual(i, j as usize) {
-                    let c = &mut cursor[j as usize];
-                    rev[*c as usize] = i as u32;
-                    *c += 1;
+    let rev = arena.scratch(|s| -> Result<&'a [u32]> {
+        // Bit b of one_way[i]: knn row i's b-th neighbour does not list i.
+        let one_way = s.try_alloc_slice::<u32>(n, 0)?;
+        parallel::rows(hooks, one_way, 1, |items, bits: &mut [u32]| {
+            for (i, bits) in items.zip(bits.iter_mut()) {
+                for (b, &j) in knn[i * k..(i + 1) * k].iter().enumerate() {
+                    if !is_mutual(i, j as usize) {
+                        *bits |= 1 << b;
+                    }
                 }
             }
+        });
+        let one_way_of = |i: usize| {
+            let bits = one_way[i];
+            knn[i * k..(i + 1) * k]
+                .iter()
+                .enumerate()
+                .filter(move |&(b, _)| bits >> b & 1 == 1)
+                .map(|(_, &j)| j as usize)
+        };
+        for i in 0..n {
+            for j in one_way_of(i) {
+                rev_start[j + 1] += 1;
+            }
         }
-        Ok(())
+        for i in 0..n {
+            rev_start[i + 1] += rev_start[i];
+        }
+        let total = rev_start[n] as usize;
+        room(total)?;
+        let rev = arena.try_alloc_slice::<u32>(total, 0)?;
+        // Fill in increasing i, so each list comes out ascending.
+        let cursor = s.try_alloc_copy::<u32>(&rev_start[..n])?;
+        for i in 0..n {
+            for j in one_way_of(i) {
+                let c = &mut cursor[j];
+                rev[*c as usize] = i as u32;
+                *c += 1;
+            }
+        }
+        Ok(rev)
     })?;
     Ok((rev_start, rev))
 }
