@@ -505,13 +505,18 @@ pub fn try_cluster_state_in<'a>(
     let planned = params.iterations.max(1) + params.split_rounds * params.split_iterations.max(1);
     tick(progress, Stage::Clustering, 0, planned as u64)?;
     let labels = arena.try_alloc_slice::<u32>(n, NONE)?;
-    let components = arena.scratch(|s| components(s, nb).map(|(_, count)| count))?;
-    let wanted = (params.clusters as usize).min(n).max(components as usize);
-    let cap = (params.cluster_cap() as usize).min(n).max(wanted);
-    let limit = (params.cluster_limit() as usize).min(n).max(cap);
-    let generators = arena.try_alloc_slice::<V3>(limit, [0.0; 3])?;
-    let seeds = arena.try_alloc_slice::<u32>(limit, 0)?;
-    arena.scratch(|s| initial_seeds(s, nb, params.seed, &mut seeds[..wanted]))?;
+    // The components (one union-find) give the least cluster count and a
+    // seed in each.
+    let (components, wanted, cap, generators, seeds) = arena.scratch(|s| {
+        let (root, components) = components(s, nb)?;
+        let wanted = (params.clusters as usize).min(n).max(components as usize);
+        let cap = (params.cluster_cap() as usize).min(n).max(wanted);
+        let limit = (params.cluster_limit() as usize).min(n).max(cap);
+        let generators = arena.try_alloc_slice::<V3>(limit, [0.0; 3])?;
+        let seeds = arena.try_alloc_slice::<u32>(limit, 0)?;
+        initial_seeds(s, root, params.seed, &mut seeds[..wanted])?;
+        Ok::<_, crate::Error>((components, wanted, cap, generators, seeds))
+    })?;
     for j in 0..wanted {
         generators[j] = points[seeds[j] as usize];
     }
@@ -811,12 +816,12 @@ fn components<'s>(s: &'s Scratch, nb: &Neighbours) -> Result<(&'s mut [u32], u32
     Ok((roots, count))
 }
 
-/// One seed in each component (a uniformly random member), then uniform draws
-/// without replacement from all points until `seeds` is full. `seeds.len()` must
-/// be at least the number of components.
-fn initial_seeds(s: &Scratch, nb: &Neighbours, seed: u64, seeds: &mut [u32]) -> Result<()> {
-    let n = nb.len();
-    let (root, _) = components(s, nb)?;
+/// One seed in each component (`root`: each point's component root, from
+/// [`components`]; a uniformly random member), then uniform draws without
+/// replacement from all points until `seeds` is full. `seeds.len()` must be at
+/// least the number of components.
+fn initial_seeds(s: &Scratch, root: &[u32], seed: u64, seeds: &mut [u32]) -> Result<()> {
+    let n = root.len();
     let mut rng = Rng::new(seed);
     // A random permutation of the points (Fisher-Yates).
     let order = s.try_alloc_slice::<u32>(n, 0)?;
