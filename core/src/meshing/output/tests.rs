@@ -303,3 +303,18 @@ fn the_shortest_seam_crosses_a_moebius_band_where_it_is_narrowest() {
     assert_eq!(shortest.len(), 2, "{shortest:?}");
     assert!(shortest.iter().any(|&i| i < narrow), "{shortest:?}");
 }
+
+#[test]
+fn densifying_adds_at_most_the_fraction_of_the_vertices_rounded_up() {
+    use super::densify_budget;
+    assert_eq!(densify_budget(0.1, 260), 26);
+    assert_eq!(densify_budget(0.1, 261), 27);
+    assert_eq!(densify_budget(0.1, 1_000), 100);
+    assert_eq!(densify_budget(0.1, 7), 1);
+    assert_eq!(densify_budget(0.0, 260), 0);
+    assert_eq!(densify_budget(1.0, 260), 260);
+    for nv in 1..5_000 {
+        let b = densify_budget(0.1, nv);
+        assert!(b * 10 >= nv && b * 10 < nv + 10, "{nv}: {b}");
+    }
+}
