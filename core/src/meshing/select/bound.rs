@@ -6,8 +6,6 @@
 
 use super::solver::{Solver, ON, UNDECIDED};
 use super::{MAX_CONSTRAINTS, UNUSED};
-use crate::arena::Alloc;
-use crate::error::Result;
 use crate::parallel;
 use crate::progress::Progress;
 
@@ -27,98 +25,6 @@ const SWEEPS_PER_ROUNDING: u32 = 5;
 /// Edges of a problem from which refreshing all their caches computes them in
 /// parallel tasks (fewer: on the calling thread; the caches are the same).
 const PARALLEL_EDGES: usize = 256;
-/// Facets of a colour class from which a smoothed sweep computes their shares
-/// in parallel tasks (fewer: on the calling thread; the shares are the same).
-pub(super) const PARALLEL_CLASS: usize = 64;
-
-/// The colour classes of a component's facets for the smoothed sweeps: no
-/// two facets of a class share a constraint, so the new shares of a class's
-/// facets depend only on the other classes' and can be computed in any order,
-/// on any threads. Classes by greedy colouring in facet order, smallest colour
-/// first. Scratch of 4 words per facet.
-pub(super) struct Sweeps<'a> {
-    /// Per facet, its colour (meaningful for the component coloured last).
-    colour: &'a mut [u32],
-    /// The component's facets by colour, in facet order within a colour.
-    order: &'a mut [u32],
-    /// Class `c` is `order[class_start[c]..class_start[c + 1]]`.
-    class_start: &'a mut [u32],
-    /// Per colour, the last facet that saw it on a neighbour (greedy colouring).
-    stamp: &'a mut [u32],
-    /// Colours in use.
-    classes: usize,
-}
-
-impl<'a> Sweeps<'a> {
-    /// Room for the colour classes of up to `facets` facets, in `scratch`.
-    pub(super) fn try_new_in<'b, A: Alloc<'b>>(scratch: &'a A, facets: usize) -> Result<Self> {
-        Ok(Sweeps {
-            colour: scratch.try_alloc_slice(facets, u32::MAX)?,
-            order: scratch.try_alloc_slice(facets, 0u32)?,
-            class_start: scratch.try_alloc_slice(facets + 1, 0u32)?,
-            stamp: scratch.try_alloc_slice(facets + 1, u32::MAX)?,
-            classes: 0,
-        })
-    }
-
-    /// The facets of colour class `c` (of [`Sweeps::classes`]).
-    #[cfg(test)]
-    pub(super) fn class(&self, c: usize) -> &[u32] {
-        &self.order[self.class_start[c] as usize..self.class_start[c + 1] as usize]
-    }
-
-    /// The number of colour classes.
-    #[cfg(test)]
-    pub(super) fn classes(&self) -> usize {
-        self.classes
-    }
-
-    /// Colour `facets` (one component, ascending) greedily: each takes the
-    /// smallest colour none of the facets sharing a constraint with it has
-    /// taken. O(Σ over its facets of their constraints' facets).
-    pub(super) fn colour(&mut self, solver: &Solver, facets: &[u32]) {
-        for &f in facets {
-            self.colour[f as usize] = u32::MAX;
-        }
-        self.classes = 0;
-        for &f in facets {
-            let f = f as usize;
-            for &e in solver.edges_of(f) {
-                for k in solver.edge_span(e as usize) {
-                    let c = self.colour[solver.facet_of(solver.edge_incidences[k])];
-                    if let Some(s) = self.stamp.get_mut(c as usize) {
-                        *s = f as u32;
-                    }
-                }
-            }
-            let c = (0..self.stamp.len())
-                .find(|&c| self.stamp[c] != f as u32)
-                .unwrap_or(0);
-            self.colour[f] = c as u32;
-            self.classes = self.classes.max(c + 1);
-        }
-        // Counting sort by colour, facet order kept within a colour.
-        let classes = self.classes;
-        self.class_start[..=classes].fill(0);
-        for &f in facets {
-            self.class_start[self.colour[f as usize] as usize + 1] += 1;
-        }
-        for c in 0..classes {
-            self.class_start[c + 1] += self.class_start[c];
-        }
-        for &f in facets {
-            let c = self.colour[f as usize] as usize;
-            self.order[self.class_start[c] as usize] = f;
-            self.class_start[c] += 1;
-        }
-        for c in (0..classes).rev() {
-            self.class_start[c + 1] = self.class_start[c];
-        }
-        self.class_start[0] = 0;
-        self.stamp[..=classes].fill(u32::MAX);
-    }
-}
-
 /// Best value of one edge alone: the maximum over degrees `d` allowed by `mask`
 /// with `selected ≤ d ≤ selected + undecided` of the sum of the `d − selected`
 /// best shares (`best ≥ second`, of distinct classes) minus `penalty` when
@@ -667,73 +573,17 @@ impl Solver<'_> {
         self.refresh_stale_marginals();
     }
 
-    /// One coordinate-descent sweep over the facets of the component coloured
-    /// in `sweeps`, colour class by colour class, on the dual smoothed at
-    /// `temperature` (see [`Solver::smoothed_shares`]): a class's new shares are
-    /// computed from the shares before it, then set. A large class is cut into
-    /// parts whose facets' shares fit in `buffer`, each computed in parallel
-    /// tasks run by `hooks` into it. Leaves the caches stale (refresh after).
-    fn smoothed_sweep(
-        &mut self,
-        sweeps: &mut Sweeps,
-        temperature: f64,
-        buffer: &mut [f64],
-        hooks: &dyn Progress,
-    ) {
-        for c in 0..sweeps.classes {
-            let class =
-                &sweeps.order[sweeps.class_start[c] as usize..sweeps.class_start[c + 1] as usize];
-            let mut i = 0;
-            while i < class.len() {
-                // The next part: facets class[i..j], their shares at
-                // buffer[at[t]..at[t + 1]] (`at` in `stamp`, free after colouring).
-                let (at, mut j, mut used) = (&mut *sweeps.stamp, i, 0usize);
-                at[0] = 0;
-                while j < class.len() {
-                    let n = self.facet_incidences(class[j] as usize).len();
-                    if used + n > buffer.len() {
-                        break;
-                    }
-                    used += n;
-                    j += 1;
-                    at[j - i] = used as u32;
-                }
-                let part = &class[i..j];
-                if part.len() < PARALLEL_CLASS {
-                    // Small (or no room for one facet): one facet after another.
-                    let next = j.max(i + 1);
-                    for &f in &class[i..next] {
-                        let f = f as usize;
-                        if let Some(new) = self.smoothed_shares(f, temperature) {
-                            let incidences = self.facet_incidences(f);
-                            let n = incidences.len();
-                            self.shares[incidences].copy_from_slice(&new[..n]);
-                        }
-                    }
-                    i = next;
-                    continue;
-                }
-                let at = &at[..=part.len()];
-                let this = &*self;
-                parallel::segments(hooks, &mut buffer[..used], at, |items, out| {
-                    let offset = at[items.start];
-                    for t in items {
-                        let row =
-                            &mut out[(at[t] - offset) as usize..(at[t + 1] - offset) as usize];
-                        match this.smoothed_shares(part[t] as usize, temperature) {
-                            Some(new) => row.copy_from_slice(&new[..row.len()]),
-                            None => row.fill(f64::NAN),
-                        }
-                    }
-                });
-                for (t, &f) in part.iter().enumerate() {
-                    let new = &buffer[at[t] as usize..at[t + 1] as usize];
-                    if !new.iter().any(|v| v.is_nan()) {
-                        let incidences = self.facet_incidences(f as usize);
-                        self.shares[incidences].copy_from_slice(new);
-                    }
-                }
-                i = j;
+    /// One coordinate-descent sweep over all facets, in order, on the dual
+    /// smoothed at `temperature` (see [`Solver::smoothed_shares`]): each
+    /// facet's new shares from the shares as the sweep has left them.
+    /// Leaves the caches stale (refresh after).
+    fn smoothed_sweep(&mut self, facets: &[u32], temperature: f64) {
+        for &f in facets {
+            let f = f as usize;
+            if let Some(new) = self.smoothed_shares(f, temperature) {
+                let incidences = self.facet_incidences(f);
+                let n = incidences.len();
+                self.shares[incidences].copy_from_slice(&new[..n]);
             }
         }
     }
@@ -742,8 +592,8 @@ impl Solver<'_> {
     /// each edge's max becomes `temperature · log Σ exp(value / temperature)`
     /// over its allowed choices, which makes the dual smooth, so the descent
     /// cannot stall at a kink. Returns `f`'s new shares, `None` for a decided
-    /// facet, an edge no choice satisfies, or shares that are not numbers (an
-    /// overflow). Reads only the shares of the other facets on `f`'s edges.
+    /// facet or an edge no choice satisfies. Reads only the shares of the other
+    /// facets on `f`'s edges.
     fn smoothed_shares(&self, f: usize, temperature: f64) -> Option<[f64; MAX_CONSTRAINTS]> {
         if self.facet_state[f] != UNDECIDED {
             return None;
@@ -830,8 +680,7 @@ impl Solver<'_> {
             finite &= on.is_finite() && off.is_finite();
             *slot = on - off;
         }
-        let new = equalising_shares(self.scores[f] as f64, &on_minus_off[..incidences.len()]);
-        (finite && !new.iter().any(|v| v.is_nan())).then_some(new)
+        finite.then(|| equalising_shares(self.scores[f] as f64, &on_minus_off[..incidences.len()]))
     }
 
     /// Coordinate descent at the component's root (problem open): smoothed sweeps
@@ -844,8 +693,6 @@ impl Solver<'_> {
         edges: &[u32],
         incumbent_value: &mut f64,
         tolerance: f64,
-        sweeps: &mut Sweeps,
-        buffer: &mut [f64],
         hooks: &dyn Progress,
     ) -> f64 {
         let mut lowest = f64::INFINITY;
@@ -880,7 +727,7 @@ impl Solver<'_> {
                 self.facet_queue.clear();
                 self.refresh_stale_marginals();
             } else {
-                self.smoothed_sweep(sweeps, temperature, buffer, hooks);
+                self.smoothed_sweep(facets, temperature);
                 self.refresh_all_edges(facets, edges, hooks);
             }
         }

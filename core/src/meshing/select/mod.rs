@@ -53,10 +53,7 @@
 //!    by coordinate descent (one facet at a time, re-split so that its edges
 //!    value it equally: the exact minimiser for that facet), on a smoothed dual with
 //!    a falling temperature at the root, then locally, only where something changed,
-//!    at every node. The root's sweeps go colour class by colour class (a greedy
-//!    colouring of the component's facets, no two of a class sharing a
-//!    constraint: 7 to 10 classes on the shared clouds), so a class's new shares
-//!    are independent of one another and a large class is computed in parallel
+//!    at every node. Refreshing every cache of a large problem runs in parallel
 //!    tasks ([`crate::parallel`]), with the same result on any threads. Each edge caches the best shares of its three best classes
 //!    (and the second best of the first two) and its term, so a node
 //!    costs work in proportion to what changed, plus one pass over the component.
@@ -88,7 +85,7 @@
 //! this file holds the public interface, the checks and the driver.
 //!
 //! ## Cost
-//! Memory: [`select_bytes_for`], about `81 F + 40 I + 100 E` bytes for `I` used
+//! Memory: [`select_bytes_for`], about `65 F + 40 I + 100 E` bytes for `I` used
 //! constraint slots (3 F to 6 F; [`select_bytes`] assumes 6 F), all from the arena,
 //! of which only the `F`-byte result is persistent. Time: O(F + E) for the checks,
 //! incidence, propagation and components; O(I) per root sweep (30 per component);
@@ -109,7 +106,6 @@ mod tests;
 use crate::arena::Alloc;
 use crate::error::{Error, Result};
 use crate::progress::{Flow, Progress, Stage};
-use bound::Sweeps;
 use incumbent::Neighbourhood;
 use propagate::{ComponentSpan, Components};
 use search::{Budget, Stack};
@@ -302,10 +298,6 @@ fn bytes_needed(facets: usize, edges: usize, incidences: usize) -> usize {
         array_bytes::<u32>(f),                   // stack trail marks
         array_bytes::<u8>(f),                    // stack branch flags
         array_bytes::<f64>(f),                   // stack bounds
-        array_bytes::<u32>(f),                   // sweeps: colour
-        array_bytes::<u32>(f),                   // sweeps: order
-        array_bytes::<u32>(f.saturating_add(1)), // sweeps: class starts
-        array_bytes::<u32>(f.saturating_add(1)), // sweeps: stamps
     ];
     list.iter().fold(0usize, |a, &b| a.saturating_add(b))
 }
@@ -414,8 +406,8 @@ impl Progress for Callback<'_> {
 }
 
 /// [`try_select_in`] reporting to `progress` (stage [`Stage::Selection`],
-/// facets settled of all) and running the parallel tasks of the smoothed
-/// sweeps through it. The selection does not depend on how it runs them.
+/// facets settled of all) and running the parallel tasks of the caches'
+/// refreshes through it. The selection does not depend on how it runs them.
 pub fn try_select_with_in<'a, 'b, A: Alloc<'b>>(
     arena: &'a A,
     input: &SelectInput<'_>,
@@ -438,7 +430,6 @@ pub fn try_select_with_in<'a, 'b, A: Alloc<'b>>(
         let mut ball = Neighbourhood::try_new_in(scratch, facet_count, edge_count)?;
         let mut components = Components::try_new_in(scratch, facet_count, edge_count)?;
         let mut stack = Stack::try_new_in(scratch, facet_count)?;
-        let mut sweeps = Sweeps::try_new_in(scratch, facet_count)?;
 
         let mut stats = SelectStats {
             forced: solver.propagate_root(),
@@ -470,7 +461,6 @@ pub fn try_select_with_in<'a, 'b, A: Alloc<'b>>(
                 components.edges_of(span),
                 &mut stack,
                 &mut ball,
-                &mut sweeps,
                 &mut budget,
             )?;
             nodes_left = budget.nodes_left;

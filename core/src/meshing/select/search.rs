@@ -6,7 +6,6 @@
 //! [`NODE_RESPLITS`] re-splits, and the same for each probed child with
 //! [`PROBE_RESPLITS`].
 
-use super::bound::Sweeps;
 use super::bound::MIN_SHARE_MOVE;
 use super::incumbent::Neighbourhood;
 use super::solver::{Solver, UNDECIDED};
@@ -45,12 +44,6 @@ pub(super) struct Stack<'a> {
 }
 
 impl<'a> Stack<'a> {
-    /// Scratch for the smoothed sweeps while no search runs (a search fills
-    /// the stack afresh): one share per facet of the component.
-    pub(super) fn sweep_buffer(&mut self) -> &mut [f64] {
-        self.bounds
-    }
-
     /// An empty stack of up to `facets` levels, in `scratch`.
     pub(super) fn try_new_in<'b, A: Alloc<'b>>(scratch: &'a A, facets: usize) -> Result<Self> {
         Ok(Stack {
@@ -71,7 +64,7 @@ pub(super) struct Budget<'r> {
     /// Nodes used so far in the run (reported every [`NODES_PER_REPORT`]).
     pub(super) nodes_used: u64,
     /// Told of progress (facets settled: `done` of `total`); a cancel request
-    /// stops the run. Runs the parallel tasks of the smoothed sweeps.
+    /// stops the run. Runs the parallel tasks of the caches' refreshes.
     pub(super) progress: &'r mut dyn Progress,
     /// Facets settled before the current component.
     pub(super) done: u64,
@@ -101,8 +94,8 @@ pub(super) struct Solved {
 
 impl Solver<'_> {
     /// Solve one component (no problem open): a dive and piece dropping, the root
-    /// bound (its smoothed sweeps colour class by colour class in `sweeps`, in
-    /// parallel tasks of `budget`'s progress), and unless that proves the incumbent, another dive, the
+    /// bound (its refreshes in parallel tasks of `budget`'s progress), and
+    /// unless that proves the incumbent, another dive, the
     /// neighbourhood search and the search, within `budget`. The incumbent on
     /// the component's facets is left in `incumbent`.
     pub(super) fn solve_component(
@@ -111,7 +104,6 @@ impl Solver<'_> {
         edges: &[u32],
         stack: &mut Stack<'_>,
         ball: &mut Neighbourhood<'_>,
-        sweeps: &mut Sweeps<'_>,
         budget: &mut Budget<'_>,
     ) -> Result<Solved> {
         let total_abs_score = facets
@@ -128,14 +120,11 @@ impl Solver<'_> {
         }
         incumbent_value += self.drop_incumbent_pieces(facets);
         self.open_problem(facets, edges, &*budget.progress);
-        sweeps.colour(self, facets);
         let root_bound = self.root_bound(
             facets,
             edges,
             &mut incumbent_value,
             tolerance,
-            sweeps,
-            stack.sweep_buffer(),
             &*budget.progress,
         );
         self.close_problem(facets, edges);

@@ -4,7 +4,6 @@
 extern crate std;
 use super::*;
 use crate::arena::Arena;
-use bound::Sweeps;
 use core::mem::MaybeUninit;
 use std::vec;
 use std::vec::Vec;
@@ -676,41 +675,6 @@ fn crossed_grid(side: u32) -> (Mesh, Vec<f32>) {
         .map(|f| ((f * 7919) % 1000) as f32 / 500.0 - 0.9)
         .collect();
     (m, scores)
-}
-
-#[test]
-fn colour_classes_hold_every_facet_once_and_no_two_that_share_a_constraint() {
-    let (m, scores) = crossed_grid(12);
-    let input = SelectInput::new(&m.facets, &scores, m.edges.len(), 0);
-    let mut buf = vec![MaybeUninit::<u8>::uninit(); select_bytes_for(&input)];
-    let arena = Arena::new(&mut buf);
-    let mut incumbent = vec![false; m.facets.len()];
-    let solver = Solver::try_new_in(&arena, &input, &mut incumbent).unwrap();
-    let mut sweeps = Sweeps::try_new_in(&arena, m.facets.len()).unwrap();
-    let all: Vec<u32> = (0..m.facets.len() as u32).collect();
-    sweeps.colour(&solver, &all);
-    let mut seen = vec![0u32; m.facets.len()];
-    let mut largest = 0;
-    for c in 0..sweeps.classes() {
-        let class = sweeps.class(c);
-        assert!(!class.is_empty(), "class {c} is empty");
-        assert!(
-            class.windows(2).all(|w| w[0] < w[1]),
-            "class {c} out of order"
-        );
-        largest = largest.max(class.len());
-        let mut used = vec![false; m.edges.len()];
-        for &f in class {
-            seen[f as usize] += 1;
-            for &e in m.facets[f as usize].iter().filter(|&&e| e != UNUSED) {
-                assert!(!used[e as usize], "two facets of class {c} share edge {e}");
-                used[e as usize] = true;
-            }
-        }
-    }
-    assert!(seen.iter().all(|&n| n == 1), "a facet missing or repeated");
-    // Large enough for the sweeps' parallel tasks.
-    assert!(largest >= bound::PARALLEL_CLASS, "largest class {largest}");
 }
 
 /// Runs the tasks last first.
