@@ -265,25 +265,43 @@ impl Solver<'_> {
             let xi = x as usize;
             let f = self.facet_of(x);
             let bit = 1u8 << (x - self.facet_start[f]);
-            if self.facet_state[f] == UNDECIDED {
-                let (on_term, off) = self.forced_terms(e, x, counts);
-                let on = self.shares[xi] + on_term;
-                // An edge that no completion satisfies (two classes short) makes
-                // the bound −∞; its marginals are moot.
-                let finite = term.is_finite();
-                self.loss_if_on[xi] = if finite { term - on } else { 0.0 };
-                self.loss_if_off[xi] = if finite { term - off } else { 0.0 };
-                if top_at[..taken].contains(&x) {
-                    self.picked_by[f] |= bit;
-                } else {
-                    self.picked_by[f] &= !bit;
-                }
+            let (on, off, picked) = if self.facet_state[f] == UNDECIDED {
+                self.marginal(e, x, counts, &top_at[..taken], term)
             } else {
-                self.loss_if_on[xi] = 0.0;
-                self.loss_if_off[xi] = 0.0;
+                (0.0, 0.0, false)
+            };
+            self.loss_if_on[xi] = on;
+            self.loss_if_off[xi] = off;
+            if picked {
+                self.picked_by[f] |= bit;
+            } else {
                 self.picked_by[f] &= !bit;
             }
         }
+    }
+
+    /// Incidence `x` of an undecided facet on edge `e` (its counts, its best
+    /// term `term` and the incidences `picked` that term takes): what the
+    /// term loses if the facet is forced on, and off, and whether it takes
+    /// the facet.
+    fn marginal(
+        &self,
+        e: usize,
+        x: u32,
+        counts: EdgeCounts,
+        picked: &[u32],
+        term: f64,
+    ) -> (f64, f64, bool) {
+        let (on_term, off) = self.forced_terms(e, x, counts);
+        let on = self.shares[x as usize] + on_term;
+        // An edge that no completion satisfies (two classes short) makes the
+        // bound −∞; its marginals are moot.
+        let (on, off) = if term.is_finite() {
+            (term - on, term - off)
+        } else {
+            (0.0, 0.0)
+        };
+        (on, off, picked.contains(&x))
     }
 
     /// Facet `f`'s losses if forced on (`on`) and off (`off`), one per
@@ -301,17 +319,10 @@ impl Solver<'_> {
             let counts = self.edge_counts(e);
             let (top_at, top) = (self.top_incidences[e], self.top_shares[e]);
             let (term, taken) = counts.term(top[0], top[1]);
-            let (on_term, off_term) = self.forced_terms(e, x as u32, counts);
-            if top_at[..taken].contains(&(x as u32)) {
-                picked |= 1 << i;
-            }
-            let finite = term.is_finite();
-            on[i] = if finite {
-                term - (self.shares[x] + on_term)
-            } else {
-                0.0
-            };
-            off[i] = if finite { term - off_term } else { 0.0 };
+            let (loss_on, loss_off, taken_here) =
+                self.marginal(e, x as u32, counts, &top_at[..taken], term);
+            (on[i], off[i]) = (loss_on, loss_off);
+            picked |= u8::from(taken_here) << i;
         }
         picked
     }
@@ -375,19 +386,20 @@ impl Solver<'_> {
     ) {
         self.drop_pending_updates();
         let ascending = |list: &[u32]| list.windows(2).all(|w| w[0] < w[1]);
-        let ends = (edges.first(), edges.last(), facets.first(), facets.last());
-        let (Some(&e_first), Some(&e_last), Some(&f_first), Some(&f_last)) = ends else {
+        let ends = match (edges.first(), edges.last(), facets.first(), facets.last()) {
+            (Some(&e_first), Some(&e_last), Some(&f_first), Some(&f_last))
+                if edges.len() >= PARALLEL_EDGES && ascending(edges) && ascending(facets) =>
+            {
+                Some((e_first, e_last, f_first, f_last))
+            }
+            _ => None,
+        };
+        let Some((e_first, e_last, f_first, f_last)) = ends else {
             for &e in edges {
                 self.refresh_edge(e as usize);
             }
             return;
         };
-        if edges.len() < PARALLEL_EDGES || !ascending(edges) || !ascending(facets) {
-            for &e in edges {
-                self.refresh_edge(e as usize);
-            }
-            return;
-        }
         let (e0, e1) = (e_first as usize, e_last as usize + 1);
         let terms = core::mem::take(&mut self.edge_terms);
         let top_at = core::mem::take(&mut self.top_incidences);
