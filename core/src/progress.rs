@@ -86,6 +86,22 @@ impl Progress for Silent {
     }
 }
 
+/// A [`Progress`] for tests that runs the tasks last first: a result that
+/// depends on the order of the tasks shows as a difference from [`Silent`].
+#[cfg(test)]
+pub(crate) struct Backwards;
+
+#[cfg(test)]
+impl Progress for Backwards {
+    fn report(&mut self, _: Stage, _: u64, _: u64) -> Flow {
+        Flow::Continue
+    }
+
+    fn run(&self, tasks: &mut [&mut dyn Task]) {
+        tasks.iter_mut().rev().for_each(|t| t.run());
+    }
+}
+
 /// Forward a report, turning a cancel request into an error.
 pub(crate) fn tick(p: &mut dyn Progress, stage: Stage, done: u64, total: u64) -> crate::Result<()> {
     match p.report(stage, done, total) {

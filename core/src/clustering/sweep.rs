@@ -469,23 +469,13 @@ mod tests {
     use crate::clustering::quadric::try_planes_in;
     use crate::parallel::Task;
     use crate::params::Params;
+    use crate::progress::Backwards;
     use crate::progress::{Flow, Silent, Stage};
     use crate::rng::Rng;
     use crate::sample::{fill, Shape};
     use core::mem::MaybeUninit;
     use std::vec;
     use std::vec::Vec;
-
-    /// Runs the tasks last first.
-    struct Backwards;
-    impl Progress for Backwards {
-        fn report(&mut self, _: Stage, _: u64, _: u64) -> Flow {
-            Flow::Continue
-        }
-        fn run(&self, tasks: &mut [&mut dyn Task]) {
-            tasks.iter_mut().rev().for_each(|t| t.run());
-        }
-    }
 
     /// Runs the tasks on three threads at once.
     struct Threads;

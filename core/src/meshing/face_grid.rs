@@ -466,6 +466,7 @@ impl<'a> FaceGrid<'a> {
 mod tests {
     use super::*;
     use crate::arena::Arena;
+    use crate::progress::Backwards;
     use crate::rng::Rng;
     use std::mem::MaybeUninit;
     use std::vec;
@@ -547,18 +548,6 @@ mod tests {
         assert_eq!(got.len(), n, "a pair was reported twice");
         assert_eq!(got, want);
         assert!(want.len() > 20, "{}", want.len());
-    }
-
-    /// Runs the tasks last first.
-    struct Backwards;
-
-    impl crate::progress::Progress for Backwards {
-        fn report(&mut self, _: crate::progress::Stage, _: u64, _: u64) -> crate::progress::Flow {
-            crate::progress::Flow::Continue
-        }
-        fn run(&self, tasks: &mut [&mut dyn crate::parallel::Task]) {
-            tasks.iter_mut().rev().for_each(|t| t.run());
-        }
     }
 
     #[test]

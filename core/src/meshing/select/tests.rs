@@ -4,6 +4,7 @@
 extern crate std;
 use super::*;
 use crate::arena::Arena;
+use crate::progress::Backwards;
 use core::mem::MaybeUninit;
 use std::vec;
 use std::vec::Vec;
@@ -675,18 +676,6 @@ fn crossed_grid(side: u32) -> (Mesh, Vec<f32>) {
         .map(|f| ((f * 7919) % 1000) as f32 / 500.0 - 0.9)
         .collect();
     (m, scores)
-}
-
-/// Runs the tasks last first.
-struct Backwards;
-
-impl Progress for Backwards {
-    fn report(&mut self, _: Stage, _: u64, _: u64) -> Flow {
-        Flow::Continue
-    }
-    fn run(&self, tasks: &mut [&mut dyn crate::parallel::Task]) {
-        tasks.iter_mut().rev().for_each(|t| t.run());
-    }
 }
 
 #[test]
