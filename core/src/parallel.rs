@@ -182,25 +182,28 @@ where
     jobs.map(|j| j.result)
 }
 
-/// Runs `f(items, part)` over [`TASKS`] contiguous ranges of the
-/// `start.len() - 1` items, where item `j` owns `out[start[j]..start[j + 1]]`
-/// (`start` ascending from 0, within `out`) and `part` is what `items` own,
-/// beginning at `out[start[items.start]]`. Returns each task's result, in
-/// task order.
-pub fn segments<T, R, F>(hooks: &dyn Progress, out: &mut [T], start: &[u32], f: F) -> [R; TASKS]
+/// Runs `f(items, part)` over [`TASKS`] contiguous ranges of `n` items, where
+/// item `j` owns `out[at(j)..at(j + 1)]` (`at` not decreasing; positions past
+/// `out`'s end are taken as its end) and `part` is what `items` own, beginning
+/// at `out[at(items.start)]`. Returns each task's result, in task order.
+pub fn segments<T, R, F>(
+    hooks: &dyn Progress,
+    out: &mut [T],
+    n: usize,
+    at: impl Fn(usize) -> usize,
+    f: F,
+) -> [R; TASKS]
 where
     T: Send,
     R: Send + Default,
     F: Fn(Range<usize>, &mut [T]) -> R + Sync,
 {
-    let n = start.len().saturating_sub(1);
     let len = out.len();
-    let at = |j: usize| (start.get(j).copied().unwrap_or(0) as usize).min(len);
     let mut rest = out;
     let mut taken = 0;
     let mut jobs: [Rows<T, R, F>; TASKS] = core::array::from_fn(|t| {
         let items = range(n, t);
-        let end = at(items.end).max(taken);
+        let end = at(items.end).min(len).max(taken);
         let (rows, tail) = core::mem::take(&mut rest).split_at_mut(end - taken);
         (rest, taken) = (tail, end);
         Rows {

@@ -25,6 +25,29 @@ const SWEEPS_PER_ROUNDING: u32 = 5;
 /// Edges of a problem from which refreshing all their caches computes them in
 /// parallel tasks (fewer: on the calling thread; the caches are the same).
 const PARALLEL_EDGES: usize = 256;
+/// Undecided facets of one level of a root sweep from which its facets are
+/// re-split in parallel tasks (fewer: on the calling thread; the shares are
+/// the same), and the fewest facets of a sweep run by levels at all.
+const PARALLEL_LEVEL: usize = 64;
+/// Fewest undecided facets a level, on average, of a sweep run by levels
+/// (fewer: one facet after another, the same shares; many small levels would
+/// each pay for a round of tasks).
+const MIN_MEAN_LEVEL: usize = 32;
+
+/// Scratch of a sweep by levels ([`Solver::sweep_in_levels`]): arrays the
+/// neighbourhood search and the search use later, idle while the root's
+/// bound runs.
+pub(super) struct Levels<'s> {
+    /// Per position in the facet list: its level (0: a decided facet).
+    pub(super) level: &'s mut [u32],
+    /// Positions grouped by level, ascending within a level.
+    pub(super) order: &'s mut [u32],
+    /// Where each level ends in `order` (one more entry than levels).
+    pub(super) start: &'s mut [u32],
+    /// Per edge id: the level of the last facet on it so far.
+    pub(super) last: &'s mut [u32],
+}
+
 /// Best value of one edge alone: the maximum over degrees `d` allowed by `mask`
 /// with `selected ≤ d ≤ selected + undecided` of the sum of the `d − selected`
 /// best shares (`best ≥ second`, of distinct classes) minus `penalty` when
@@ -589,15 +612,147 @@ impl Solver<'_> {
     /// smoothed at `temperature` (see [`Solver::smoothed_shares`]): each
     /// facet's new shares from the shares as the sweep has left them.
     /// Leaves the caches stale (refresh after).
-    fn smoothed_sweep(&mut self, facets: &[u32], temperature: f64) {
-        for &f in facets {
-            let f = f as usize;
-            if let Some(new) = self.smoothed_shares(f, temperature) {
-                let incidences = self.facet_incidences(f);
-                let n = incidences.len();
-                self.shares[incidences].copy_from_slice(&new[..n]);
+    ///
+    /// A facet's new shares read only the facets sharing an edge with it, so
+    /// the sweep runs level by level ([`Solver::sweep_in_levels`]), each level
+    /// in parallel tasks of `hooks`, when the levels are few: the same shares
+    /// as one facet after another, bit for bit.
+    fn smoothed_sweep(
+        &mut self,
+        facets: &[u32],
+        temperature: f64,
+        levels: &mut Levels<'_>,
+        hooks: &dyn Progress,
+    ) {
+        if !self.sweep_in_levels(facets, temperature, levels, hooks) {
+            for &f in facets {
+                self.resplit_smoothed(f as usize, temperature);
             }
         }
+    }
+
+    /// Set facet `f`'s shares to [`Solver::smoothed_shares`] (unchanged when
+    /// there are none).
+    pub(super) fn resplit_smoothed(&mut self, f: usize, temperature: f64) {
+        if let Some(new) = self.smoothed_shares(f, temperature) {
+            let incidences = self.facet_incidences(f);
+            let n = incidences.len();
+            self.shares[incidences].copy_from_slice(&new[..n]);
+        }
+    }
+
+    /// [`Solver::smoothed_sweep`] by levels, when `facets` (ascending) has
+    /// at least [`MIN_MEAN_LEVEL`] undecided facets a level on average;
+    /// returns whether it ran. An undecided facet's level is one more than
+    /// the highest level of the facets before it (in `facets`) that share an
+    /// edge with it. So two facets of one level share no edge, and every
+    /// facet before a facet and sharing an edge with it is of a lower level,
+    /// every one after it of a higher: sweeping the levels in turn, each
+    /// level's facets from the shares the levels before left, gives each
+    /// facet the shares it reads one facet after another. A level of
+    /// [`PARALLEL_LEVEL`] facets or more is computed in parallel tasks into
+    /// `loss_if_on` (a cache, stale until the refresh after the sweep) and
+    /// then copied into the shares; a smaller one on the calling thread.
+    pub(super) fn sweep_in_levels(
+        &mut self,
+        facets: &[u32],
+        temperature: f64,
+        levels: &mut Levels<'_>,
+        hooks: &dyn Progress,
+    ) -> bool {
+        let n = facets.len();
+        let Levels {
+            level,
+            order,
+            start,
+            last,
+        } = levels;
+        if n < PARALLEL_LEVEL
+            || level.len() < n
+            || order.len() < n
+            || !facets.windows(2).all(|w| w[0] < w[1])
+        {
+            return false;
+        }
+        for &f in facets {
+            for &e in self.edges_of(f as usize) {
+                last[e as usize] = 0;
+            }
+        }
+        let mut top = 0u32;
+        for (j, &f) in facets.iter().enumerate() {
+            let f = f as usize;
+            level[j] = 0;
+            if self.facet_state[f] != UNDECIDED {
+                continue;
+            }
+            let edges = self.edges_of(f);
+            let l = 1 + edges.iter().map(|&e| last[e as usize]).max().unwrap_or(0);
+            for &e in edges {
+                last[e as usize] = l;
+            }
+            level[j] = l;
+            top = top.max(l);
+        }
+        let top = top as usize;
+        if top + 2 > start.len() || top.saturating_mul(MIN_MEAN_LEVEL) > n {
+            return false;
+        }
+        // Positions by level, ascending within a level (a counting sort): level
+        // l's are `order[start[l - 1]..start[l]]` after the scatter.
+        start[..top + 2].fill(0);
+        for &l in &level[..n] {
+            start[l as usize + 1] += 1;
+        }
+        for l in 0..=top {
+            start[l + 1] += start[l];
+        }
+        for (j, &l) in level[..n].iter().enumerate() {
+            order[start[l as usize] as usize] = j as u32;
+            start[l as usize] += 1;
+        }
+        for l in 1..=top {
+            let list = &order[start[l - 1] as usize..start[l] as usize];
+            if list.len() < PARALLEL_LEVEL {
+                for &j in list {
+                    self.resplit_smoothed(facets[j as usize] as usize, temperature);
+                }
+                continue;
+            }
+            let staged = core::mem::take(&mut self.loss_if_on);
+            let this = &*self;
+            let facet_of_item = |i: usize| list.get(i).map(|&j| facets[j as usize] as usize);
+            let (Some(first), Some(end)) = (facet_of_item(0), facet_of_item(list.len() - 1)) else {
+                self.loss_if_on = staged;
+                continue;
+            };
+            let (x0, x1) = (
+                this.facet_start[first] as usize,
+                this.facet_start[end + 1] as usize,
+            );
+            let at = |i: usize| facet_of_item(i).map_or(x1, |f| this.facet_start[f] as usize) - x0;
+            parallel::segments(hooks, &mut staged[x0..x1], list.len(), at, |items, part| {
+                let base = at(items.start);
+                for i in items {
+                    let Some(f) = facet_of_item(i) else {
+                        break;
+                    };
+                    let xs = this.facet_incidences(f);
+                    let lo = xs.start - x0 - base;
+                    let out = &mut part[lo..lo + xs.len()];
+                    match this.smoothed_shares(f, temperature) {
+                        Some(new) => out.copy_from_slice(&new[..xs.len()]),
+                        None => out.copy_from_slice(&this.shares[xs]),
+                    }
+                }
+            });
+            for &j in list {
+                let xs = self.facet_incidences(facets[j as usize] as usize);
+                self.shares[xs.clone()].copy_from_slice(&staged[xs]);
+            }
+            self.loss_if_on = staged;
+        }
+        true
     }
 
     /// Coordinate descent on facet `f` on the dual smoothed at `temperature`:
@@ -605,7 +760,9 @@ impl Solver<'_> {
     /// over its allowed choices, which makes the dual smooth, so the descent
     /// cannot stall at a kink. Returns `f`'s new shares, `None` for a decided
     /// facet or an edge no choice satisfies. Reads only the shares of the other
-    /// facets on `f`'s edges.
+    /// facets on `f`'s edges. Inlined into both callers: as a call, its
+    /// soft max stayed a call too (callgrind: 1 % more instructions a run).
+    #[inline(always)]
     fn smoothed_shares(&self, f: usize, temperature: f64) -> Option<[f64; MAX_CONSTRAINTS]> {
         if self.facet_state[f] != UNDECIDED {
             return None;
@@ -705,6 +862,7 @@ impl Solver<'_> {
         edges: &[u32],
         incumbent_value: &mut f64,
         tolerance: f64,
+        levels: &mut Levels<'_>,
         hooks: &dyn Progress,
     ) -> f64 {
         let mut lowest = f64::INFINITY;
@@ -739,7 +897,7 @@ impl Solver<'_> {
                 self.facet_queue.clear();
                 self.refresh_stale_marginals();
             } else {
-                self.smoothed_sweep(facets, temperature);
+                self.smoothed_sweep(facets, temperature, levels, hooks);
                 self.refresh_all_edges(facets, edges, hooks);
             }
         }

@@ -46,6 +46,11 @@ impl<'a> Neighbourhood<'a> {
             edges: scratch.try_alloc_slice(edges, 0u32)?,
         })
     }
+
+    /// Its facet and edge arrays, for scratch between balls.
+    pub(super) fn arrays(&mut self) -> (&mut [u32], &mut [u32]) {
+        (self.facets, self.edges)
+    }
 }
 
 impl Solver<'_> {

@@ -54,7 +54,10 @@
 //!    value it equally: the exact minimiser for that facet), on a smoothed dual with
 //!    a falling temperature at the root, then locally, only where something changed,
 //!    at every node. Refreshing every cache of a large problem runs in parallel
-//!    tasks ([`crate::parallel`]), with the same result on any threads. Each edge caches the best shares of its three best classes
+//!    tasks ([`crate::parallel`]), with the same result on any threads, and so
+//!    do the root's smoothed sweeps, level by level (a facet's level one more
+//!    than that of the last facet before it sharing an edge: the shares of a
+//!    sweep in facet order, bit for bit). Each edge caches the best shares of its three best classes
 //!    (and the second best of the first two) and its term, so a node
 //!    costs work in proportion to what changed, plus one pass over the component.
 //!    When the edges of every facet agree, their picks are a feasible

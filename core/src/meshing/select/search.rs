@@ -6,7 +6,7 @@
 //! [`NODE_RESPLITS`] re-splits, and the same for each probed child with
 //! [`PROBE_RESPLITS`].
 
-use super::bound::MIN_SHARE_MOVE;
+use super::bound::{Levels, MIN_SHARE_MOVE};
 use super::incumbent::Neighbourhood;
 use super::solver::{Solver, UNDECIDED};
 use crate::arena::Alloc;
@@ -120,11 +120,21 @@ impl Solver<'_> {
         }
         incumbent_value += self.drop_incumbent_pieces(facets);
         self.open_problem(facets, edges, &*budget.progress);
+        // The root's sweeps borrow the stack's and the ball's arrays, whose
+        // searches come after.
+        let (order, last) = ball.arrays();
+        let mut levels = Levels {
+            level: &mut *stack.facets,
+            order,
+            start: &mut *stack.trail_marks,
+            last,
+        };
         let root_bound = self.root_bound(
             facets,
             edges,
             &mut incumbent_value,
             tolerance,
+            &mut levels,
             &*budget.progress,
         );
         self.close_problem(facets, edges);

@@ -4,7 +4,7 @@
 extern crate std;
 use super::*;
 use crate::arena::Arena;
-use crate::progress::Backwards;
+use crate::progress::{Backwards, Silent};
 use core::mem::MaybeUninit;
 use std::vec;
 use std::vec::Vec;
@@ -689,4 +689,71 @@ fn the_selection_does_not_depend_on_the_order_its_tasks_run_in() {
     assert_eq!(forwards, backwards.to_vec());
     assert_eq!(stats.objective.to_bits(), again.objective.to_bits());
     assert_eq!(stats.upper_bound.to_bits(), again.upper_bound.to_bits());
+}
+
+/// Runs the tasks last first and counts the rounds of tasks.
+struct CountingBackwards(core::cell::Cell<u32>);
+
+impl crate::progress::Progress for CountingBackwards {
+    fn report(&mut self, _: crate::progress::Stage, _: u64, _: u64) -> crate::progress::Flow {
+        crate::progress::Flow::Continue
+    }
+
+    fn run(&self, tasks: &mut [&mut dyn crate::parallel::Task]) {
+        self.0.set(self.0.get() + 1);
+        tasks.iter_mut().rev().for_each(|t| t.run());
+    }
+}
+
+#[test]
+fn a_sweep_by_levels_leaves_the_shares_of_a_sweep_facet_after_facet() {
+    // The crossed grid's facets in a scrambled order (a grid order would chain
+    // every facet to the one before: one level a facet).
+    let (m, scores) = crossed_grid(16);
+    let n = m.facets.len();
+    let perm: Vec<usize> = (0..n).map(|i| (i * 385) % n).collect();
+    let facet_edges: Vec<_> = perm.iter().map(|&i| m.facets[i]).collect();
+    let scores: Vec<f32> = perm.iter().map(|&i| scores[i]).collect();
+    let input = SelectInput::new(&facet_edges, &scores, m.edges.len(), 200);
+    let facets: Vec<u32> = (0..n as u32).collect();
+    let edges: Vec<u32> = (0..m.edges.len() as u32).collect();
+    // The shares after each sweep, and the rounds of tasks run.
+    let sweeps = |by_levels: bool| -> (Vec<Vec<u64>>, u32) {
+        let mut buf = vec![MaybeUninit::<u8>::uninit(); select_bytes_for(&input)];
+        let arena = Arena::new(&mut buf);
+        let mut incumbent = vec![false; n];
+        let mut solver = solver::Solver::try_new_in(&arena, &input, &mut incumbent).unwrap();
+        let hooks = CountingBackwards(core::cell::Cell::new(0));
+        solver.open_problem(&facets, &edges, &hooks);
+        let (mut level, mut order, mut start) = (vec![0u32; n], vec![0u32; n], vec![0u32; n]);
+        let mut last = vec![0u32; edges.len()];
+        let mut levels = bound::Levels {
+            level: &mut level,
+            order: &mut order,
+            start: &mut start,
+            last: &mut last,
+        };
+        let before = hooks.0.get();
+        let mut after = Vec::new();
+        for temperature in [0.2, 0.1, 0.05, 0.02] {
+            if by_levels {
+                assert!(solver.sweep_in_levels(&facets, temperature, &mut levels, &hooks));
+            } else {
+                for &f in &facets {
+                    solver.resplit_smoothed(f as usize, temperature);
+                }
+            }
+            after.push(solver.shares.iter().map(|s| s.to_bits()).collect());
+            solver.refresh_all_edges(&facets, &edges, &Silent);
+        }
+        (after, hooks.0.get() - before)
+    };
+    let (levelled, rounds) = sweeps(true);
+    let (serial, none) = sweeps(false);
+    assert_eq!(none, 0);
+    assert!(
+        rounds >= 4,
+        "{rounds} rounds of tasks: no level ran in parallel"
+    );
+    assert_eq!(levelled, serial);
 }
