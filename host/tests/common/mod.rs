@@ -61,12 +61,14 @@ pub fn field(report: &str, key: &str) -> f64 {
 }
 
 /// Reads `path` as a cloud, expects an error, checks it names the file and contains
-/// every `detail`, and that it came back fast (no giant allocation or loop).
+/// every `detail`, and that it came back (no giant allocation or endless
+/// loop: 20 s, as the hostile-argument tests allow, because under qemu on a
+/// loaded machine a read of milliseconds takes seconds).
 pub fn cloud_err(path: &Path, details: &[&str]) -> String {
     let t = Instant::now();
     let r = read_cloud(path);
     assert!(
-        t.elapsed() < Duration::from_secs(2),
+        t.elapsed() < Duration::from_secs(20),
         "took {:?}",
         t.elapsed()
     );
