@@ -13,6 +13,7 @@
 #   bash fuzz/run.sh 60                # every target, 60 s each
 #   bash fuzz/run.sh 300 reconstruct   # one target
 #   FUZZ_TIMEOUT=300 nice -n 19 bash fuzz/run.sh 3600   # long runs beside other work
+#   FUZZ_NICE=10 bash fuzz/run.sh 60   # build at the normal priority, fuzz at nice 10
 set -euo pipefail
 cd "$(dirname "$0")"
 seconds=${1:-60}
@@ -35,6 +36,11 @@ echo "using: ${fuzz[*]} ($("${fuzz[@]}" --version))"
 
 bash seed.sh
 "${fuzz[@]}" build
+# The fuzzers (started after this) inherit the lowered priority; the build had
+# the caller's.
+if [ -n "${FUZZ_NICE:-}" ]; then
+  renice -n "$FUZZ_NICE" -p $$ >/dev/null
+fi
 
 failed=()
 summary=()
