@@ -719,13 +719,12 @@ impl Solver<'_> {
                 }
                 continue;
             }
-            let staged = core::mem::take(&mut self.loss_if_on);
-            let this = &*self;
             let facet_of_item = |i: usize| list.get(i).map(|&j| facets[j as usize] as usize);
             let (Some(first), Some(end)) = (facet_of_item(0), facet_of_item(list.len() - 1)) else {
-                self.loss_if_on = staged;
                 continue;
             };
+            let staged = core::mem::take(&mut self.loss_if_on);
+            let this = &*self;
             let (x0, x1) = (
                 this.facet_start[first] as usize,
                 this.facet_start[end + 1] as usize,
