@@ -33,8 +33,8 @@
 //! - Deterministic: the same input and [`Params`] give bit-identical results.
 //! - Threads are the caller's: stages whose work splits into independent parts
 //!   (the k-NN queries and the reverse-neighbour table, the plane quadrics,
-//!   the generator updates, the facet selection's cache refreshes, the
-//!   point-to-mesh distances, the fit's searches, the
+//!   the generator updates, the facet selection's cache refreshes and root
+//!   sweeps (level by level), the point-to-mesh distances, the fit's searches, the
 //!   crossing-face test and the gap search) are cut into a fixed
 //!   number of tasks ([`parallel`]) that the caller's [`Progress::run`] may run
 //!   on any threads; the result is the same bytes for every thread count.

@@ -369,8 +369,8 @@ fn connect(
     }
     let queue = s.try_alloc_slice::<u32>(start[m] as usize, 0)?;
     let read = &*labels;
-    let at = |j: usize| start[j] as usize;
-    parallel::segments(hooks, queue, m, at, |clusters, part: &mut [u32]| {
+    let begin = |j: usize| start[j] as usize;
+    parallel::segments(hooks, queue, m, begin, |clusters, part: &mut [u32]| {
         let mut at = 0;
         for j in clusters {
             let size = (start[j + 1] - start[j]) as usize;

@@ -64,7 +64,8 @@ pub(super) struct Budget<'r> {
     /// Nodes used so far in the run (reported every [`NODES_PER_REPORT`]).
     pub(super) nodes_used: u64,
     /// Told of progress (facets settled: `done` of `total`); a cancel request
-    /// stops the run. Runs the parallel tasks of the caches' refreshes.
+    /// stops the run. Runs the parallel tasks of the caches' refreshes and of
+    /// the root's sweeps.
     pub(super) progress: &'r mut dyn Progress,
     /// Facets settled before the current component.
     pub(super) done: u64,
@@ -94,7 +95,8 @@ pub(super) struct Solved {
 
 impl Solver<'_> {
     /// Solve one component (no problem open): a dive and piece dropping, the root
-    /// bound (its refreshes in parallel tasks of `budget`'s progress), and
+    /// bound (its sweeps and refreshes in parallel tasks of `budget`'s
+    /// progress), and
     /// unless that proves the incumbent, another dive, the
     /// neighbourhood search and the search, within `budget`. The incumbent on
     /// the component's facets is left in `incumbent`.

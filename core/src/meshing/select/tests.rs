@@ -701,7 +701,7 @@ impl crate::progress::Progress for CountingBackwards {
 
     fn run(&self, tasks: &mut [&mut dyn crate::parallel::Task]) {
         self.0.set(self.0.get() + 1);
-        tasks.iter_mut().rev().for_each(|t| t.run());
+        crate::progress::Progress::run(&Backwards, tasks);
     }
 }
 
