@@ -17,3 +17,4 @@ pub mod progress;
 pub mod render;
 pub mod report;
 pub mod stdout;
+pub mod team;

@@ -1,6 +1,7 @@
 //! Time per stage and a progress bar on stderr (only when stderr is a terminal),
 //! and the threads core's parallel stages run on.
 
+use crate::team::Team;
 use serde::ser::{SerializeMap, Serializer};
 use serde::Serialize;
 use std::io::{IsTerminal, Write};
@@ -16,7 +17,7 @@ pub struct StageClock {
     bar: bool,
     last_draw: Option<Instant>,
     /// The threads core's parallel stages run on (none: the calling thread).
-    pool: Option<rayon::ThreadPool>,
+    team: Option<Team>,
 }
 
 impl StageClock {
@@ -28,25 +29,20 @@ impl StageClock {
             times: Vec::new(),
             bar: show_bar && std::io::stderr().is_terminal(),
             last_draw: None,
-            pool: None,
+            team: None,
         }
     }
 
     /// The same clock, running core's parallel stages on `threads` threads
     /// (the calling thread alone when 1, or when the threads cannot be
-    /// started). The threads are started once and wait between stages: a
-    /// partition runs dozens of short parallel sweeps.
+    /// started): the calling thread and a [`Team`] of helpers, started once,
+    /// that wait for the next round actively for a moment (core hands over
+    /// hundreds of short rounds a run).
     pub fn with_threads(self, threads: usize) -> Self {
-        let pool = (threads > 1)
-            .then(|| {
-                rayon::ThreadPoolBuilder::new()
-                    .num_threads(threads)
-                    .thread_name(|i| format!("vsaqem-{i}"))
-                    .build()
-                    .ok()
-            })
-            .flatten();
-        StageClock { pool, ..self }
+        StageClock {
+            team: Team::new(threads),
+            ..self
+        }
     }
 
     /// Close the running stage (call after core returns).
@@ -147,20 +143,17 @@ impl Progress for StageClock {
     }
 
     fn run(&self, tasks: &mut [&mut dyn Task]) {
-        run_tasks(self.pool.as_ref(), tasks);
+        run_tasks(self.team.as_ref(), tasks);
     }
 }
 
-/// Runs each task once, on the threads of `pool` or, without one, one after
+/// Runs each task once, on the threads of `team` or, without one, one after
 /// another on the calling thread. Which thread runs a task does not matter:
 /// core combines the tasks' results in task order.
-pub fn run_tasks(pool: Option<&rayon::ThreadPool>, tasks: &mut [&mut dyn Task]) {
-    use rayon::prelude::*;
-    match pool {
-        Some(pool) if tasks.len() > 1 => {
-            pool.install(|| tasks.par_iter_mut().with_max_len(1).for_each(|t| t.run()))
-        }
-        _ => tasks.iter_mut().for_each(|t| t.run()),
+pub fn run_tasks(team: Option<&Team>, tasks: &mut [&mut dyn Task]) {
+    match team {
+        Some(team) => team.run(tasks),
+        None => tasks.iter_mut().for_each(|t| t.run()),
     }
 }
 

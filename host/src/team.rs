@@ -1,0 +1,333 @@
+//! The threads core's parallel tasks run on: the calling thread and helpers
+//! that wait for work *actively* for a while before they sleep.
+//!
+//! Core hands over its work in many short rounds (a partition's sweeps, the
+//! selection's cache refreshes and root sweeps by levels: about 500 rounds on
+//! the bunny, many under 100 µs). A thread that sleeps between rounds has to
+//! be woken for the next, and on a virtual machine an idle CPU is halted, so
+//! a wake-up can cost more than the round: with a sleeping pool two threads
+//! were slower than one on such rounds here (`bench/notes.md`). So a helper
+//! spins on the round counter for a moment (2 ms) after its last task before it
+//! sleeps, and the calling thread takes tasks too instead of waiting for the
+//! helpers to start.
+//!
+//! A round: the caller publishes the tasks (under a lock, with a new round
+//! number), then every thread takes tasks one at a time from a shared count
+//! of those left, tagged with the round number, so a helper that comes late
+//! can never take a task of a later round; the caller returns when all have
+//! finished. Which thread runs a task does not matter: core combines the
+//! results in task order.
+
+use std::panic::{catch_unwind, AssertUnwindSafe};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
+use std::sync::{Arc, Condvar, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+use vsaqem_core::Task;
+
+/// How long a helper waits actively for the next round before it sleeps,
+/// when the team has no more threads than the machine has cores (more
+/// threads than cores sleep at once: a spinning thread would take a core
+/// from one with work).
+const SPIN: Duration = Duration::from_millis(2);
+
+/// The calling thread and `threads - 1` helpers.
+pub struct Team {
+    shared: Arc<Shared>,
+    helpers: Vec<JoinHandle<()>>,
+}
+
+/// What the caller and the helpers share.
+struct Shared {
+    /// The current round's tasks (a pointer to the caller's slice, valid
+    /// until the round's last task has finished) and its number.
+    round: Mutex<Round>,
+    /// The current round's number, for helpers to watch without the lock.
+    number: AtomicU64,
+    /// `number << 32 | tasks not yet taken`: a task is taken by lowering the
+    /// count while the round is still the one the taker read.
+    left: AtomicU64,
+    /// Tasks of the current round finished.
+    finished: AtomicUsize,
+    /// A task panicked (the caller panics in turn).
+    panicked: AtomicBool,
+    /// Helpers asleep wait here for the next round (or the end).
+    wake: Condvar,
+    /// The team is being dropped.
+    stop: AtomicBool,
+    /// How long a helper spins before it sleeps.
+    spin: Duration,
+}
+
+/// A round's tasks as a raw slice: a pointer to the caller's `&mut dyn Task`
+/// slice (its lifetime erased) and a length.
+#[derive(Clone, Copy)]
+struct Round {
+    number: u64,
+    tasks: *mut (),
+    len: usize,
+}
+
+// SAFETY: the pointer is only followed for a task taken in its own round, and
+// the caller keeps the slice alive (and untouched) until every task taken in
+// that round has finished; `Task: Send`.
+unsafe impl Send for Round {}
+
+impl Team {
+    /// A team of `threads` threads (the caller and `threads - 1` helpers);
+    /// `None` when `threads` < 2 or a helper cannot be started.
+    pub fn new(threads: usize) -> Option<Team> {
+        if threads < 2 {
+            return None;
+        }
+        let shared = Arc::new(Shared {
+            round: Mutex::new(Round {
+                number: 0,
+                tasks: std::ptr::null_mut(),
+                len: 0,
+            }),
+            number: AtomicU64::new(0),
+            left: AtomicU64::new(0),
+            finished: AtomicUsize::new(0),
+            panicked: AtomicBool::new(false),
+            wake: Condvar::new(),
+            stop: AtomicBool::new(false),
+            spin: match std::thread::available_parallelism() {
+                Ok(cores) if threads <= cores.get() => SPIN,
+                _ => Duration::ZERO,
+            },
+        });
+        let mut team = Team {
+            shared,
+            helpers: Vec::new(),
+        };
+        for i in 0..threads - 1 {
+            let shared = Arc::clone(&team.shared);
+            let helper = std::thread::Builder::new()
+                .name(format!("vsaqem-{i}"))
+                .spawn(move || help(&shared))
+                .ok()?;
+            team.helpers.push(helper);
+        }
+        Some(team)
+    }
+
+    /// Threads in the team, the caller's included.
+    pub fn threads(&self) -> usize {
+        self.helpers.len() + 1
+    }
+
+    /// Run every task of `tasks` exactly once, on the caller and the helpers;
+    /// return when all have finished.
+    pub fn run(&self, tasks: &mut [&mut dyn Task]) {
+        let len = tasks.len();
+        if len < 2 {
+            tasks.iter_mut().for_each(|t| t.run());
+            return;
+        }
+        let shared = &*self.shared;
+        let number = {
+            let mut round = lock(&shared.round);
+            let number = round.number + 1;
+            // The slice outlives the round: this call returns only after
+            // every task has finished.
+            *round = Round {
+                number,
+                tasks: tasks.as_mut_ptr() as *mut (),
+                len,
+            };
+            shared.finished.store(0, Ordering::Relaxed);
+            shared.left.store(tag(number, len), Ordering::Release);
+            shared.number.store(number, Ordering::Release);
+            shared.wake.notify_all();
+            number
+        };
+        let round = Round {
+            number,
+            tasks: tasks.as_mut_ptr() as *mut (),
+            len,
+        };
+        work(shared, round);
+        // The last tasks are running: wait for them actively (yielding now
+        // and then, in case their threads wait for a core).
+        let mut spins = 0u32;
+        while shared.finished.load(Ordering::Acquire) < len {
+            std::hint::spin_loop();
+            spins = spins.wrapping_add(1);
+            if spins % 1024 == 0 {
+                std::thread::yield_now();
+            }
+        }
+        if shared.panicked.swap(false, Ordering::Relaxed) {
+            panic!("a parallel task panicked");
+        }
+    }
+}
+
+impl Drop for Team {
+    fn drop(&mut self) {
+        {
+            let _round = lock(&self.shared.round);
+            self.shared.stop.store(true, Ordering::Release);
+            self.shared.wake.notify_all();
+        }
+        for helper in self.helpers.drain(..) {
+            let _ = helper.join();
+        }
+    }
+}
+
+/// `number << 32 | left`.
+fn tag(number: u64, left: usize) -> u64 {
+    (number << 32) | (left as u64 & 0xFFFF_FFFF)
+}
+
+/// The lock, also after a panic elsewhere (the round it guards is plain data).
+fn lock(m: &Mutex<Round>) -> std::sync::MutexGuard<'_, Round> {
+    m.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// Take and run tasks of `round` until none is left or the round is over.
+fn work(shared: &Shared, round: Round) {
+    let mut seen = shared.left.load(Ordering::Acquire);
+    loop {
+        let left = (seen & 0xFFFF_FFFF) as usize;
+        if seen >> 32 != round.number & 0xFFFF_FFFF || left == 0 {
+            return;
+        }
+        match shared
+            .left
+            .compare_exchange_weak(seen, seen - 1, Ordering::AcqRel, Ordering::Acquire)
+        {
+            Ok(_) => {
+                let index = left - 1;
+                if index < round.len {
+                    // SAFETY: `round.tasks` points to `round.len` values of
+                    // `&mut dyn Task`, live until every task taken in the
+                    // round has finished; task `index` is taken by this
+                    // thread alone.
+                    let task: &mut &mut dyn Task =
+                        unsafe { &mut *(round.tasks as *mut &mut dyn Task).add(index) };
+                    if catch_unwind(AssertUnwindSafe(|| task.run())).is_err() {
+                        shared.panicked.store(true, Ordering::Relaxed);
+                    }
+                }
+                shared.finished.fetch_add(1, Ordering::AcqRel);
+                seen = shared.left.load(Ordering::Acquire);
+            }
+            Err(now) => seen = now,
+        }
+    }
+}
+
+/// A helper's life: wait for a round (actively for up to [`SPIN`], then
+/// asleep),
+/// work on it, and again, until the team is dropped.
+fn help(shared: &Shared) {
+    let mut done = 0u64;
+    loop {
+        let started = Instant::now();
+        let mut spins = 0u32;
+        while shared.number.load(Ordering::Acquire) == done && !shared.stop.load(Ordering::Acquire)
+        {
+            std::hint::spin_loop();
+            spins = spins.wrapping_add(1);
+            if spins % 1024 == 0 && started.elapsed() >= shared.spin {
+                let mut round = lock(&shared.round);
+                while round.number == done && !shared.stop.load(Ordering::Acquire) {
+                    round = shared.wake.wait(round).unwrap_or_else(|e| e.into_inner());
+                }
+                break;
+            }
+        }
+        if shared.stop.load(Ordering::Acquire) {
+            return;
+        }
+        let round = *lock(&shared.round);
+        done = round.number;
+        work(shared, round);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Counts its runs.
+    struct Count(u32);
+
+    impl Task for Count {
+        fn run(&mut self) {
+            // Uneven work, so the threads finish in different orders.
+            let mut x = self.0 as u64;
+            for i in 0..(x % 7) * 500 {
+                x = std::hint::black_box(x.wrapping_mul(31).wrapping_add(i));
+            }
+            self.0 += 1;
+        }
+    }
+
+    #[test]
+    fn every_task_runs_once_in_every_round() {
+        for threads in [2, 3, 5] {
+            let team = Team::new(threads).expect("threads start");
+            assert_eq!(team.threads(), threads);
+            for round in 0..3000u32 {
+                let n = (round % 70) as usize;
+                let mut counts: Vec<Count> = (0..n).map(|i| Count(i as u32 * 10)).collect();
+                let mut tasks: Vec<&mut dyn Task> =
+                    counts.iter_mut().map(|c| c as &mut dyn Task).collect();
+                team.run(&mut tasks);
+                for (i, c) in counts.iter().enumerate() {
+                    assert_eq!(c.0, i as u32 * 10 + 1, "round {round}, task {i}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn sleeping_helpers_wake_for_the_next_round() {
+        let team = Team::new(2).expect("threads start");
+        for _ in 0..3 {
+            let mut counts: Vec<Count> = (0..8).map(|_| Count(0)).collect();
+            let mut tasks: Vec<&mut dyn Task> =
+                counts.iter_mut().map(|c| c as &mut dyn Task).collect();
+            team.run(&mut tasks);
+            assert!(counts.iter().all(|c| c.0 == 1));
+            // Longer than the helpers spin.
+            std::thread::sleep(SPIN * 3);
+        }
+    }
+
+    /// Panics when run.
+    struct Boom;
+
+    impl Task for Boom {
+        fn run(&mut self) {
+            panic!("boom");
+        }
+    }
+
+    #[test]
+    fn a_task_that_panics_makes_the_caller_panic_and_the_team_goes_on() {
+        let team = Team::new(2).expect("threads start");
+        let hook = std::panic::take_hook();
+        std::panic::set_hook(Box::new(|_| {}));
+        let outcome = catch_unwind(AssertUnwindSafe(|| {
+            let (mut a, mut b, mut c) = (Count(0), Boom, Count(0));
+            team.run(&mut [&mut a, &mut b, &mut c]);
+        }));
+        std::panic::set_hook(hook);
+        assert!(outcome.is_err());
+        let mut counts: Vec<Count> = (0..5).map(|_| Count(0)).collect();
+        let mut tasks: Vec<&mut dyn Task> = counts.iter_mut().map(|c| c as &mut dyn Task).collect();
+        team.run(&mut tasks);
+        assert!(counts.iter().all(|c| c.0 == 1));
+    }
+
+    #[test]
+    fn one_thread_is_no_team() {
+        assert!(Team::new(1).is_none());
+        assert!(Team::new(0).is_none());
+    }
+}
