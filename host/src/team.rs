@@ -126,26 +126,21 @@ impl Team {
             return;
         }
         let shared = &*self.shared;
-        let number = {
-            let mut round = lock(&shared.round);
-            let number = round.number + 1;
+        let round = {
+            let mut published = lock(&shared.round);
             // The slice outlives the round: this call returns only after
             // every task has finished.
-            *round = Round {
-                number,
+            let round = Round {
+                number: published.number + 1,
                 tasks: tasks.as_mut_ptr() as *mut (),
                 len,
             };
+            *published = round;
             shared.finished.store(0, Ordering::Relaxed);
-            shared.left.store(tag(number, len), Ordering::Release);
-            shared.number.store(number, Ordering::Release);
+            shared.left.store(tag(round.number, len), Ordering::Release);
+            shared.number.store(round.number, Ordering::Release);
             shared.wake.notify_all();
-            number
-        };
-        let round = Round {
-            number,
-            tasks: tasks.as_mut_ptr() as *mut (),
-            len,
+            round
         };
         work(shared, round);
         // The last tasks are running: wait for them actively (yielding now
@@ -221,8 +216,7 @@ fn work(shared: &Shared, round: Round) {
 }
 
 /// A helper's life: wait for a round (actively for up to [`SPIN`], then
-/// asleep),
-/// work on it, and again, until the team is dropped.
+/// asleep), work on it, and again, until the team is dropped.
 fn help(shared: &Shared) {
     let mut done = 0u64;
     loop {
