@@ -48,6 +48,8 @@
 //! - [`mark_duplicates`]: exact duplicates (bitwise-equal positions), the
 //!   first of each kept; before anything else, since piles of copies defeat
 //!   the neighbour search and look like surface to the fragment filter.
+//!   [`mark_duplicates_hashed`] gives the same marks faster, with twice the
+//!   scratch.
 //! - [`clean()`]: statistical outliers and small isolated fragments, on the exact
 //!   k-NN graph; its arena bound is [`clean_bytes`], never more than
 //!   [`arena_bytes`]. [`clean_with_rows`] also hands back that graph, which
@@ -140,7 +142,7 @@ pub use params::{
     SWEEP_MIN_POINTS,
 };
 pub use prepass::clean::{clean, clean_with_rows, CleanStats};
-pub use prepass::duplicates::mark_duplicates;
+pub use prepass::duplicates::{mark_duplicates, mark_duplicates_hashed};
 pub use prepass::smooth::{smooth, smooth_bytes};
 pub use progress::{Flow, Progress, Silent, Stage};
 pub use validate::Bounds;

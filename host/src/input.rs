@@ -360,14 +360,16 @@ pub fn prepare(name: String, mut cloud: Cloud) -> Result<Prepared, String> {
 /// dropped, whatever their normals and colours, and the kept points stay in
 /// the order read. So a cloud with every point stored several times is the
 /// cloud stored once, and gives the same mesh. Returns how many were dropped.
-/// `O(n log n)` ([`vsaqem_core::mark_duplicates`]), 5 bytes a point of scratch.
+/// `O(n log n)` ([`vsaqem_core::mark_duplicates_hashed`]), 9 bytes a point of
+/// scratch.
 pub fn merge_duplicates(cloud: &mut Cloud) -> Result<usize, vsaqem_core::Error> {
+    use vsaqem_core::prepass::duplicates::{f64_bits, f64_bits_hash};
     let n = cloud.positions.len();
     let mut first = vec![false; n];
     let copies = {
-        let mut order = vec![0u32; n];
-        let bits = vsaqem_core::prepass::duplicates::f64_bits;
-        vsaqem_core::mark_duplicates(&cloud.positions, bits, &mut order, &mut first)?
+        let mut order = vec![0u64; n];
+        let (points, hash) = (&cloud.positions, f64_bits_hash);
+        vsaqem_core::mark_duplicates_hashed(points, f64_bits, hash, &mut order, &mut first)?
     };
     if copies > 0 {
         retain(&mut cloud.positions, &first);
