@@ -353,7 +353,10 @@ impl<'a> ClusterState<'a> {
     /// `open` (the mesh has a boundary: on open data a far point beyond the
     /// border, the raw scan's under an error bound of 0.5 %). Then relaxes as
     /// [`ClusterState::refine`] does. A point that seeds its cluster hands that
-    /// on to the cluster's member of least cost (O(n) each). Returns the
+    /// on to the cluster's member of least cost (O(n) each), unless the
+    /// cluster's generator is on the point (an earlier round's, not moved
+    /// since): it is then treated as a cluster of its own, since a second
+    /// generator there would only be merged with the first. Returns the
     /// generators added.
     #[allow(clippy::too_many_arguments)]
     pub fn refine_at(
@@ -387,9 +390,12 @@ impl<'a> ClusterState<'a> {
             if self.seeds.get(l as usize) == Some(&p) {
                 // p seeds its cluster: that cluster takes its member of least
                 // cost instead, and p seeds the new one.
+                // A generator already on p (one an earlier round put there,
+                // which no update has moved) is not handed on: a second one
+                // on p would only be merged with it.
                 let g = self.generators[l as usize];
                 let other = (0..points.len())
-                    .filter(|&i| self.labels[i] == l && i != p as usize)
+                    .filter(|&i| g != q && self.labels[i] == l && i != p as usize)
                     .map(|i| (ctx.cost(i, g), i as u32))
                     .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
                 match other {
@@ -1313,6 +1319,78 @@ mod tests {
             nb.of(p as usize).contains(&new) && !seeds_at.contains(&new),
             "{new}"
         );
+    }
+
+    /// A far point that seeds a cluster whose generator is on it (as an
+    /// earlier round leaves it) gets no second generator there, which would
+    /// only be merged with the first: on open data its neighbour worst
+    /// represented gets it, on closed data none is added.
+    #[test]
+    fn a_far_point_under_its_own_generator_gets_no_second_one() {
+        let mut buf = vec![MaybeUninit::uninit(); 4 * 1024 * 1024];
+        let arena = Arena::new(&mut buf);
+        // A 11 x 11 plate; generators at its middle p and at its four corners:
+        // p's cluster holds p and the points around it.
+        let points: Vec<V3> = (0..121)
+            .map(|i| [(i % 11) as f32, (i / 11) as f32, 0.0])
+            .collect();
+        let at = |x: i32, y: i32| (y * 11 + x) as u32;
+        let params = Params::default();
+        let nb = try_neighbours_in(&arena, &points, params.k, &mut Silent).unwrap();
+        let planes = try_planes_in(&arena, &points, None, &nb, &mut Silent).unwrap();
+        let seeds_at = [at(5, 5), at(0, 0), at(10, 0), at(0, 10), at(10, 10)];
+        let p = seeds_at[0];
+        for open in [true, false] {
+            let m = seeds_at.len();
+            let labels = arena.try_alloc_slice::<u32>(points.len(), NONE).unwrap();
+            let generators = arena.try_alloc_slice::<V3>(m + 2, [0.0; 3]).unwrap();
+            let seeds = arena.try_alloc_slice::<u32>(m + 2, 0).unwrap();
+            for (j, &s) in seeds_at.iter().enumerate() {
+                generators[j] = points[s as usize];
+                seeds[j] = s;
+            }
+            let ctx = Ctx::new(&points, &nb, &planes, &params);
+            arena
+                .scratch(|s| {
+                    let (g, sd) = (&generators[..m], &seeds[..m]);
+                    partition(s, &ctx, g, sd, labels, Start::Fresh, None, &Silent)
+                })
+                .unwrap();
+            assert!(labels.iter().filter(|&&l| l == 0).count() > 1);
+            let mut state = ClusterState {
+                labels,
+                border: &mut [],
+                sweeps: false,
+                generators,
+                seeds,
+                m,
+                cap: m + 2,
+                stats: ClusterStats::default(),
+            };
+            let added = state
+                .refine_at(
+                    &arena,
+                    &points,
+                    &nb,
+                    &planes,
+                    &[p],
+                    &[],
+                    false,
+                    open,
+                    &params,
+                    &mut Silent,
+                )
+                .unwrap();
+            assert_eq!(added, open as usize, "open {open}");
+            let g = &state.generators[..m + added];
+            for (i, a) in g.iter().enumerate() {
+                assert!(!g[..i].contains(a), "open {open}: two generators at {a:?}");
+            }
+            assert_eq!(state.seeds[0], p);
+            if open {
+                assert!(nb.of(p as usize).contains(&state.seeds[m]));
+            }
+        }
     }
 
     /// Pops come out in ascending key order, whatever order the pushes came in
