@@ -70,6 +70,23 @@ impl<'a> UnionFind<'a> {
         true
     }
 
+    /// Joins `a`'s set with the set of each of `others`: the sets
+    /// [`union`](Self::union) would make one pair at a time, with `a`'s root
+    /// found once instead of once a pair. Indices out of range are ignored.
+    pub fn union_all(&mut self, a: u32, others: impl IntoIterator<Item = u32>) {
+        let mut root = self.find(a);
+        if root as usize >= self.parent.len() {
+            return;
+        }
+        for b in others {
+            let other = self.find(b);
+            if other != root && (other as usize) < self.parent.len() {
+                self.parent[root.max(other) as usize] = root.min(other);
+                root = root.min(other);
+            }
+        }
+    }
+
     /// Every element's root, in place: entry `i` of the result is `find(i)`.
     pub fn into_roots(mut self) -> &'a mut [u32] {
         for i in 0..self.parent.len() {
@@ -97,6 +114,39 @@ mod tests {
         assert!(uf.union(7, 6));
         let roots = uf.into_roots();
         assert_eq!(roots, &[0, 1, 2, 1, 4, 1, 1, 1]);
+    }
+
+    /// `union_all` makes the sets and roots of one `union` a pair, on random
+    /// graphs, out-of-range indices among them.
+    #[test]
+    fn union_all_gives_the_roots_of_pairwise_unions() {
+        let mut x = 99u64;
+        let mut next = |n: u64| {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (x >> 33) % n
+        };
+        for _ in 0..50 {
+            let n = 1 + next(60) as usize;
+            let rows: std::vec::Vec<(u32, [u32; 3])> = (0..next(80))
+                .map(|_| {
+                    (
+                        next(n as u64 + 2) as u32,
+                        [0; 3].map(|_| next(n as u64 + 2) as u32),
+                    )
+                })
+                .collect();
+            let (mut a, mut b) = (std::vec![0u32; n], std::vec![0u32; n]);
+            let (mut pairs, mut all) = (UnionFind::new(&mut a), UnionFind::new(&mut b));
+            for &(i, row) in &rows {
+                for j in row {
+                    pairs.union(i, j);
+                }
+                all.union_all(i, row);
+            }
+            assert_eq!(pairs.into_roots(), all.into_roots());
+        }
     }
 
     #[test]

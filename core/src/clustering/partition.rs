@@ -809,9 +809,7 @@ fn components<'s>(s: &'s Scratch, nb: &Neighbours) -> Result<(&'s mut [u32], u32
     let n = nb.len();
     let mut sets = UnionFind::try_new_in(s, n)?;
     for i in 0..n {
-        for &j in nb.of(i) {
-            sets.union(i as u32, j);
-        }
+        sets.union_all(i as u32, nb.of(i).iter().copied());
     }
     let roots = sets.into_roots();
     let count = roots

@@ -185,11 +185,7 @@ pub fn try_pieces_in<'a, 'b, A: Alloc<'b>>(
         let mut sets = UnionFind::try_new_in(s, m)?;
         for i in 0..labels.len() {
             let Some(a) = group(i as u32) else { continue };
-            for &q in nb.of(i) {
-                if let Some(b) = group(q) {
-                    sets.union(a, b);
-                }
-            }
+            sets.union_all(a, nb.of(i).iter().filter_map(|&q| group(q)));
         }
         for (x, &r) in piece.iter_mut().zip(rep) {
             *x = sets.find(r);

@@ -240,15 +240,11 @@ fn drop_fragments(
         if !keep[i] {
             continue;
         }
-        for &j in row {
-            let Some(&q) = points.get(j as usize) else {
-                continue;
-            };
-            if !keep[j as usize] || dist2(points[i], q) > link2 {
-                continue;
-            }
-            pieces.union(i as u32, j);
-        }
+        let linked = row.iter().copied().filter(|&j| {
+            let q = points.get(j as usize);
+            q.is_some_and(|&q| keep[j as usize] && dist2(points[i], q) <= link2)
+        });
+        pieces.union_all(i as u32, linked);
     }
     let root = pieces.into_roots();
     let size = s.try_alloc_slice::<u32>(n, 0)?;
