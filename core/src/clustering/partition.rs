@@ -1232,6 +1232,57 @@ mod tests {
     use std::vec;
     use std::vec::Vec;
 
+    /// An 11 x 11 plate of spacing 1 (point `(x, y)` at `y * 11 + x`), its
+    /// neighbours and planes.
+    fn plate<'a>(arena: &'a Arena) -> (Vec<V3>, Neighbours<'a>, Planes<'a>) {
+        let points: Vec<V3> = (0..121)
+            .map(|i| [(i % 11) as f32, (i / 11) as f32, 0.0])
+            .collect();
+        let nb = try_neighbours_in(arena, &points, Params::default().k, &mut Silent).unwrap();
+        let planes = try_planes_in(arena, &points, None, &nb, &mut Silent).unwrap();
+        (points, nb, planes)
+    }
+
+    fn at(x: i32, y: i32) -> u32 {
+        (y * 11 + x) as u32
+    }
+
+    /// A clustering of the plate with generators on the points `seeds_at`
+    /// (room for two more), partitioned by region growing from them.
+    fn clustered_plate<'a>(
+        arena: &'a Arena,
+        (points, nb, planes): &(Vec<V3>, Neighbours, Planes),
+        seeds_at: &[u32],
+        cap: usize,
+    ) -> ClusterState<'a> {
+        let m = seeds_at.len();
+        let labels = arena.try_alloc_slice::<u32>(points.len(), NONE).unwrap();
+        let generators = arena.try_alloc_slice::<V3>(m + 2, [0.0; 3]).unwrap();
+        let seeds = arena.try_alloc_slice::<u32>(m + 2, 0).unwrap();
+        for (j, &p) in seeds_at.iter().enumerate() {
+            generators[j] = points[p as usize];
+            seeds[j] = p;
+        }
+        let params = Params::default();
+        let ctx = Ctx::new(points, nb, planes, &params);
+        arena
+            .scratch(|s| {
+                let (g, sd) = (&generators[..m], &seeds[..m]);
+                partition(s, &ctx, g, sd, labels, Start::Fresh, None, &Silent)
+            })
+            .unwrap();
+        ClusterState {
+            labels,
+            border: &mut [],
+            sweeps: false,
+            generators,
+            seeds,
+            m,
+            cap,
+            stats: ClusterStats::default(),
+        }
+    }
+
     /// In a round for the genus, a rim point that alone makes its cluster
     /// cannot be split off again: its neighbour worst represented by its own
     /// generator gets the generator.
@@ -1239,15 +1290,10 @@ mod tests {
     fn a_rim_point_alone_in_its_cluster_hands_its_generator_to_a_neighbour() {
         let mut buf = vec![MaybeUninit::uninit(); 4 * 1024 * 1024];
         let arena = Arena::new(&mut buf);
-        // A 11 x 11 plate, spacing 1; p at its middle, generators at p and at
-        // the 8 points around it: p's cluster is p alone.
-        let points: Vec<V3> = (0..121)
-            .map(|i| [(i % 11) as f32, (i / 11) as f32, 0.0])
-            .collect();
-        let at = |x: i32, y: i32| (y * 11 + x) as u32;
-        let params = Params::default();
-        let nb = try_neighbours_in(&arena, &points, params.k, &mut Silent).unwrap();
-        let planes = try_planes_in(&arena, &points, None, &nb, &mut Silent).unwrap();
+        let plate = plate(&arena);
+        let (points, nb, planes) = &plate;
+        // p at the plate's middle, generators at p and at the 8 points around
+        // it: p's cluster is p alone.
         let mut seeds_at = vec![at(5, 5)];
         for (dx, dy) in [
             (-1, -1),
@@ -1262,47 +1308,17 @@ mod tests {
             seeds_at.push(at(5 + dx, 5 + dy));
         }
         let m = seeds_at.len();
-        let labels = arena.try_alloc_slice::<u32>(points.len(), NONE).unwrap();
-        let generators = arena.try_alloc_slice::<V3>(m + 2, [0.0; 3]).unwrap();
-        let seeds = arena.try_alloc_slice::<u32>(m + 2, 0).unwrap();
-        for (j, &p) in seeds_at.iter().enumerate() {
-            generators[j] = points[p as usize];
-            seeds[j] = p;
-        }
-        let ctx = Ctx::new(&points, &nb, &planes, &params);
-        arena
-            .scratch(|s| {
-                partition(
-                    s,
-                    &ctx,
-                    &generators[..m],
-                    &seeds[..m],
-                    labels,
-                    Start::Fresh,
-                    None,
-                    &crate::progress::Silent,
-                )
-            })
-            .unwrap();
-        let alone = labels.iter().filter(|&&l| l == 0).count();
+        let mut state = clustered_plate(&arena, &plate, &seeds_at, m);
+        let alone = state.labels.iter().filter(|&&l| l == 0).count();
         assert_eq!(alone, 1, "p is not alone in its cluster");
-        let mut state = ClusterState {
-            labels,
-            border: &mut [],
-            sweeps: false,
-            generators,
-            seeds,
-            m,
-            cap: m,
-            stats: ClusterStats::default(),
-        };
         let p = at(5, 5);
+        let params = Params::default();
         let added = state
             .refine_at(
                 &arena,
-                &points,
-                &nb,
-                &planes,
+                points,
+                nb,
+                planes,
                 &[],
                 &[p],
                 true,
@@ -1327,50 +1343,22 @@ mod tests {
     fn a_far_point_under_its_own_generator_gets_no_second_one() {
         let mut buf = vec![MaybeUninit::uninit(); 4 * 1024 * 1024];
         let arena = Arena::new(&mut buf);
-        // A 11 x 11 plate; generators at its middle p and at its four corners:
-        // p's cluster holds p and the points around it.
-        let points: Vec<V3> = (0..121)
-            .map(|i| [(i % 11) as f32, (i / 11) as f32, 0.0])
-            .collect();
-        let at = |x: i32, y: i32| (y * 11 + x) as u32;
-        let params = Params::default();
-        let nb = try_neighbours_in(&arena, &points, params.k, &mut Silent).unwrap();
-        let planes = try_planes_in(&arena, &points, None, &nb, &mut Silent).unwrap();
+        let plate = plate(&arena);
+        let (points, nb, planes) = &plate;
+        // Generators at the middle p and at the four corners: p's cluster
+        // holds p and the points around it.
         let seeds_at = [at(5, 5), at(0, 0), at(10, 0), at(0, 10), at(10, 10)];
-        let p = seeds_at[0];
+        let (p, m) = (seeds_at[0], seeds_at.len());
+        let params = Params::default();
         for open in [true, false] {
-            let m = seeds_at.len();
-            let labels = arena.try_alloc_slice::<u32>(points.len(), NONE).unwrap();
-            let generators = arena.try_alloc_slice::<V3>(m + 2, [0.0; 3]).unwrap();
-            let seeds = arena.try_alloc_slice::<u32>(m + 2, 0).unwrap();
-            for (j, &s) in seeds_at.iter().enumerate() {
-                generators[j] = points[s as usize];
-                seeds[j] = s;
-            }
-            let ctx = Ctx::new(&points, &nb, &planes, &params);
-            arena
-                .scratch(|s| {
-                    let (g, sd) = (&generators[..m], &seeds[..m]);
-                    partition(s, &ctx, g, sd, labels, Start::Fresh, None, &Silent)
-                })
-                .unwrap();
-            assert!(labels.iter().filter(|&&l| l == 0).count() > 1);
-            let mut state = ClusterState {
-                labels,
-                border: &mut [],
-                sweeps: false,
-                generators,
-                seeds,
-                m,
-                cap: m + 2,
-                stats: ClusterStats::default(),
-            };
+            let mut state = clustered_plate(&arena, &plate, &seeds_at, m + 2);
+            assert!(state.labels.iter().filter(|&&l| l == 0).count() > 1);
             let added = state
                 .refine_at(
                     &arena,
-                    &points,
-                    &nb,
-                    &planes,
+                    points,
+                    nb,
+                    planes,
                     &[p],
                     &[],
                     false,
