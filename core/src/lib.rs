@@ -84,7 +84,8 @@
 //!    (boundary vertices stay, no face turns over), and the points' distances
 //!    to it measured.
 //! 9. Refinement ([`Params::refine_rounds`]): where a round leaves clusters without
-//!    a face, they are split and the mesh is made again.
+//!    a face, they are split (past the cluster cap if need be, up to
+//!    [`Params::cluster_limit`]) and the mesh is made again.
 //!
 //! **Infrastructure** beside the phases: [`arena`] (the only memory), [`budget`]
 //! (how much of it a run can need), [`frame`] (into core's coordinates and
@@ -274,23 +275,38 @@ pub fn reconstruct_with_rows<'a>(
     // is a cluster of its own refines at a neighbour
     // ([`ClusterState::refine_at`](clustering::partition::ClusterState::refine_at)).
     let mut open = false;
+    // A round that only asked for cover found nothing to split.
+    let mut cover_done = false;
     let (mesh, meshing) = loop {
         // The last round writes the mesh out; an earlier one only when it covers
         // every cluster and meets the error bound (otherwise refinement follows
         // and the mesh would be waste). After the refinement rounds, rounds for
-        // the genus write it out unless faces span a gap in the data.
+        // the genus write it out unless faces span a gap in the data. While
+        // refinement rounds are left, a round with no room under the cap still
+        // splits the clusters it leaves out, past the cap (the armadillo at
+        // 250 clusters: splitting took the whole cap and left 5 clusters, 379
+        // points, out of the mesh).
         let state = &clustering.state;
+        let covered = !cover_done
+            && rounds < params.refinement_rounds()
+            && state.limit_room() > 0
+            && params.max_error <= 0.0;
         let output = if last {
             Output::Always
         } else if rounds < params.refinement_rounds() && state.room() > 0 {
             Output::IfFaithful { max_distance }
         } else if gap_rounds < GAP_ROUNDS
-            && state.rim_room() > 0
+            && state.limit_room() > 0
             && max_distance.is_finite()
             && !open
             && coarse(points.len(), state.view().generators.len(), params)
         {
-            Output::IfNoGaps { max_distance }
+            Output::IfNoGaps {
+                max_distance,
+                covered,
+            }
+        } else if covered {
+            Output::IfCovered
         } else {
             Output::Always
         };
@@ -325,8 +341,9 @@ pub fn reconstruct_with_rows<'a>(
             &clustering.neighbours,
             &clustering.planes,
         );
-        // Only rounds for the genus go past the cap.
-        let genus = matches!(output, Output::IfNoGaps { .. });
+        // Rounds for the genus (rims of gaps found) and for clusters left out
+        // go past the cap.
+        let genus = matches!(output, Output::IfNoGaps { .. }) && n_far > 0;
         let more = if n_far > 0 {
             state.refine_at(
                 arena, points, nb, planes, far, rims, genus, open, params, progress,
@@ -335,9 +352,17 @@ pub fn reconstruct_with_rows<'a>(
             state.refine(arena, points, nb, planes, targets, params, progress)?
         };
         if more == 0 {
-            // Nothing to split: this round's mesh is the answer. Make it again,
-            // written out (same clusters, same mesh).
-            last = true;
+            // Nothing to split. After a round that only asked for cover (no
+            // room under the cap), the rounds go on as they would have without
+            // it (the same clusters: the next round makes the same mesh and
+            // judges it as before). Otherwise this round's mesh is the answer:
+            // make it again, written out (same clusters, same mesh).
+            let cover_only = matches!(output, Output::IfCovered | Output::IfNoGaps { .. });
+            if cover_only && n_far == 0 && !cover_done {
+                cover_done = true;
+            } else {
+                last = true;
+            }
             continue;
         }
         if genus {

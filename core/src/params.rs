@@ -16,7 +16,8 @@ pub struct Params {
     /// raised to the number of connected components. Default 1000.
     pub clusters: u32,
     /// Upper bound on clusters that batch splitting and refinement may reach
-    /// (refinement at the rims of gaps may go a [`GAP_ROOM`]th beyond it); 0
+    /// (refinement at the rims of gaps and of clusters the mesh leaves out may
+    /// go a [`GAP_ROOM`]th beyond it); 0
     /// means twice `clusters`. Default 0.
     pub max_clusters: u32,
     /// Partition + generator-update passes before the first splitting batch; the
@@ -177,10 +178,12 @@ pub const MAX_ERROR_ROUNDS: u32 = 16;
 pub const GAP_ROUNDS: u32 = 4;
 
 /// The room beyond the cluster cap ([`Params::cluster_cap`]) for generators
-/// at the rims of gaps, as a divisor of the cap: a thirty-second. Splitting
-/// can take the whole cap, and a wrong genus is worse than a few more
-/// vertices (the gear at 250 clusters: splitting ends at 486 of 500, then 20
-/// generators in 5 rounds open its last hole, 6 of them past the cap). Kept
+/// at the rims of gaps and for splitting clusters the mesh leaves out, as a
+/// divisor of the cap: a thirty-second. Splitting can take the whole cap, and
+/// a wrong genus or data left out is worse than a few more vertices (the gear
+/// at 250 clusters: splitting ends at 486 of 500, then 20 generators in 5
+/// rounds open its last hole, 6 of them past the cap; at seed 5 splitting
+/// ends at 495 and the mesh left 36 clusters, 908 points, out). Kept
 /// small because the meshing capacity is budgeted for every cluster of it
 /// (a sixteenth put a sphere's budget above twice its peak).
 pub const GAP_ROOM: u32 = 32;
@@ -308,7 +311,8 @@ impl Params {
     }
 
     /// The most clusters a run can hold: the cap and a [`GAP_ROOM`]th of it
-    /// for generators at the rims of gaps the faces span.
+    /// for generators at the rims of gaps the faces span and in clusters the
+    /// mesh leaves out.
     pub fn cluster_limit(&self) -> u32 {
         let cap = self.cluster_cap();
         cap.saturating_add(cap / GAP_ROOM)

@@ -224,7 +224,9 @@ pub struct ClusterArgs {
     /// vertices, more where splitting adds some (reconstruct: at least 4).
     #[arg(long, default_value_t = Params::default().clusters)]
     pub clusters: u32,
-    /// Cap on clusters that splitting may reach (0: twice --clusters).
+    /// Cap on clusters that splitting may reach (0: twice --clusters);
+    /// refinement may go a thirty-second past it for clusters the mesh leaves
+    /// out and at the rims of gaps.
     #[arg(long, default_value_t = Params::default().max_clusters)]
     pub max_clusters: u32,
     /// Partition + generator-update passes before splitting.

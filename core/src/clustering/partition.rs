@@ -233,15 +233,16 @@ impl<'a> ClusterState<'a> {
         }
     }
 
-    /// Generators the cluster cap still allows ([`ClusterState::refine`] adds
-    /// none when this is 0).
+    /// Generators the cluster cap still allows (far points,
+    /// [`ClusterState::refine_at`]'s `at`).
     pub fn room(&self) -> usize {
         self.cap.saturating_sub(self.m)
     }
 
-    /// Generators the limit still allows at the rims of gaps
-    /// ([`ClusterState::refine_at`]'s `rims`).
-    pub fn rim_room(&self) -> usize {
+    /// Generators the limit still allows: for clusters left out of the mesh
+    /// ([`ClusterState::refine`] adds none when this is 0) and at the rims of
+    /// gaps ([`ClusterState::refine_at`]'s `rims`).
+    pub fn limit_room(&self) -> usize {
         self.generators.len() - self.m
     }
 
@@ -263,8 +264,10 @@ impl<'a> ClusterState<'a> {
 
     /// Split each cluster of `targets` across its length (at the member
     /// farthest from the line through the generator and its worst point, of
-    /// largest error, see `split`), as room under the cap allows, then relax with
-    /// `params.split_iterations` passes. Returns the generators added.
+    /// largest error, see `split`), as room under the limit allows (past the
+    /// cap: data left out of the mesh is worse than a few more vertices, see
+    /// [`Params::cluster_limit`]), then relax with `params.split_iterations`
+    /// passes. Returns the generators added.
     #[allow(clippy::too_many_arguments)]
     pub fn refine(
         &mut self,
@@ -278,7 +281,7 @@ impl<'a> ClusterState<'a> {
     ) -> Result<usize> {
         let ctx = Ctx::new(points, nb, planes, params);
         let m = self.m;
-        let take = targets.len().min(self.room());
+        let take = targets.len().min(self.limit_room());
         if take == 0 {
             return Ok(0);
         }
@@ -328,11 +331,11 @@ impl<'a> ClusterState<'a> {
                     worst[j] = (e, i as u32);
                 }
             }
-            let mut added = 0;
+            let (mut added, limit) = (0, self.generators.len());
             for j in 0..m {
                 let (a, b) = (along[j], worst[j].1);
                 for p in [Some(a), (b != a).then_some(b)].into_iter().flatten() {
-                    if wanted[j] && p != u32::MAX && p != self.seeds[j] && m + added < self.cap {
+                    if wanted[j] && p != u32::MAX && p != self.seeds[j] && m + added < limit {
                         self.generators[m + added] = points[p as usize];
                         self.seeds[m + added] = p;
                         added += 1;
@@ -1281,6 +1284,47 @@ mod tests {
             cap,
             stats: ClusterStats::default(),
         }
+    }
+
+    /// Clusters left out of the mesh are split past the cap (splitting may
+    /// have taken all of it), as far as the limit allows and no further.
+    #[test]
+    fn clusters_left_out_are_split_past_the_cap_up_to_the_limit() {
+        let mut buf = vec![MaybeUninit::uninit(); 4 * 1024 * 1024];
+        let arena = Arena::new(&mut buf);
+        let plate = plate(&arena);
+        let (points, nb, planes) = &plate;
+        let seeds_at = [at(2, 2), at(8, 2), at(2, 8), at(8, 8)];
+        let m = seeds_at.len();
+        // The cap is reached; the limit leaves room for two more.
+        let mut state = clustered_plate(&arena, &plate, &seeds_at, m);
+        assert_eq!((state.room(), state.limit_room()), (0, 2));
+        let params = Params::default();
+        let added = state
+            .refine(
+                &arena,
+                points,
+                nb,
+                planes,
+                &[0, 1, 2, 3],
+                &params,
+                &mut Silent,
+            )
+            .unwrap();
+        assert_eq!(added, 2);
+        assert_eq!((state.m, state.limit_room()), (m + 2, 0));
+        // Every point is in one of the clusters, each cluster holds its seed.
+        for (i, &l) in state.labels.iter().enumerate() {
+            assert!((l as usize) < m + 2, "point {i}: label {l}");
+        }
+        for j in 0..m + 2 {
+            assert_eq!(state.labels[state.seeds[j] as usize], j as u32);
+        }
+        // Nothing is left under the limit: no more are added.
+        let more = state
+            .refine(&arena, points, nb, planes, &[0], &params, &mut Silent)
+            .unwrap();
+        assert_eq!(more, 0);
     }
 
     /// In a round for the genus, a rim point that alone makes its cluster

@@ -240,7 +240,14 @@ pub enum Output {
     IfNoGaps {
         /// The refinement distance the gaps' bound is a multiple of.
         max_distance: f32,
+        /// Also only when every cluster with points has a face (as
+        /// [`Output::IfCovered`]).
+        covered: bool,
     },
+    /// Only when every cluster with points has a face (a round that may split
+    /// clusters left out past the cap, [`crate::params::GAP_ROOM`]); any
+    /// distance otherwise.
+    IfCovered,
 }
 
 /// Build the mesh of the `selected` candidate facets, closing boundary loops of
@@ -467,11 +474,17 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             // Without an error bound, clusters left out are what refinement
             // splits first; with one, and after them, the points farthest
             // from the mesh are.
-            Output::IfFaithful { .. } if uncovered_clusters > 0 && params.max_error <= 0.0 => {
+            Output::IfFaithful { .. }
+            | Output::IfNoGaps { covered: true, .. }
+            | Output::IfCovered
+                if uncovered_clusters > 0 && params.max_error <= 0.0 =>
+            {
                 return Ok((None, stats))
             }
-            Output::IfFaithful { max_distance } | Output::IfNoGaps { max_distance } => max_distance,
-            Output::Always => f32::INFINITY,
+            Output::IfFaithful { max_distance } | Output::IfNoGaps { max_distance, .. } => {
+                max_distance
+            }
+            Output::Always | Output::IfCovered => f32::INFINITY,
         };
         // The mesh is made in scratch and measured there; only a mesh that is
         // wanted is copied out. Room for the vertices densifying may add.
