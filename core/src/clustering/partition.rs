@@ -213,10 +213,14 @@ pub struct ClusterState<'a> {
     sweeps: bool,
     generators: &'a mut [V3],
     seeds: &'a mut [u32],
+    /// Generators and seeds kept by [`ClusterState::checkpoint`] (splitting's
+    /// copies; empty without splitting).
+    kept_g: &'a mut [V3],
+    kept_s: &'a mut [u32],
     m: usize,
     /// The cluster cap (splitting's, and refinement's but at the rims of
-    /// gaps): the generators beyond it, up to `generators.len()` (the limit),
-    /// are for those rims.
+    /// gaps and in clusters the mesh leaves out): the generators beyond it, up
+    /// to `generators.len()` (the limit), are for those.
     cap: usize,
     /// Statistics so far.
     pub stats: ClusterStats,
@@ -244,6 +248,48 @@ impl<'a> ClusterState<'a> {
     /// gaps ([`ClusterState::refine_at`]'s `rims`).
     pub fn limit_room(&self) -> usize {
         self.generators.len() - self.m
+    }
+
+    /// Whether there are more clusters than the cap.
+    pub fn past_cap(&self) -> bool {
+        self.m > self.cap
+    }
+
+    /// Keep the current generators and seeds to go back to
+    /// ([`ClusterState::restore`]). `false` (nothing kept) under sweeps,
+    /// whose partition depends on the one before it, or where the copies
+    /// have no room (more clusters than the cap, or no splitting).
+    pub fn checkpoint(&mut self) -> bool {
+        let m = self.m;
+        if self.sweeps || m > self.kept_g.len() || m > self.kept_s.len() {
+            return false;
+        }
+        self.kept_g[..m].copy_from_slice(&self.generators[..m]);
+        self.kept_s[..m].copy_from_slice(&self.seeds[..m]);
+        true
+    }
+
+    /// Go back to the `m` clusters of the last [`ClusterState::checkpoint`]
+    /// (which returned `true` with `m` clusters): region growing's partition
+    /// of the same generators and seeds is the same partition.
+    #[allow(clippy::too_many_arguments)]
+    pub fn restore(
+        &mut self,
+        arena: &Arena,
+        points: &[V3],
+        nb: &Neighbours,
+        planes: &Planes,
+        m: usize,
+        params: &Params,
+        progress: &mut dyn Progress,
+    ) -> Result<()> {
+        let m = m.min(self.kept_g.len()).min(self.kept_s.len()).min(self.m);
+        self.generators[..m].copy_from_slice(&self.kept_g[..m]);
+        self.seeds[..m].copy_from_slice(&self.kept_s[..m]);
+        self.m = 0;
+        let ctx = Ctx::new(points, nb, planes, params);
+        self.relax_after_adding(arena, &ctx, m, None, progress)?;
+        Ok(())
     }
 
     /// The limit: the most generators this clustering can ever hold (the cap
@@ -568,6 +614,9 @@ pub fn try_cluster_state_in<'a>(
     };
     pass(&mut st, m, params.iterations, &mut stats, progress)?;
     let mut err2 = split::max_error2(&ctx, st.labels, &st.generators[..m], &*progress);
+    // Splitting's copies of the state; refinement's after it (none without
+    // splitting).
+    let (mut kept_g, mut kept_s): (&mut [V3], &mut [u32]) = (&mut [], &mut []);
     if params.tolerance > 0.0 && params.split_rounds > 0 {
         let backup_g = arena.try_alloc_slice::<V3>(cap, [0.0; 3])?;
         let backup_s = arena.try_alloc_slice::<u32>(cap, 0)?;
@@ -650,6 +699,7 @@ pub fn try_cluster_state_in<'a>(
                 }
             }
         }
+        (kept_g, kept_s) = (backup_g, backup_s);
     }
     stats.max_error = relative(err2, diag);
     let r = stats.split_rounds as usize;
@@ -674,6 +724,8 @@ pub fn try_cluster_state_in<'a>(
         sweeps,
         generators,
         seeds,
+        kept_g,
+        kept_s,
         m,
         cap,
         stats,
@@ -1280,6 +1332,8 @@ mod tests {
             sweeps: false,
             generators,
             seeds,
+            kept_g: arena.try_alloc_slice::<V3>(m, [0.0; 3]).unwrap(),
+            kept_s: arena.try_alloc_slice::<u32>(m, 0).unwrap(),
             m,
             cap,
             stats: ClusterStats::default(),
@@ -1325,6 +1379,39 @@ mod tests {
             .refine(&arena, points, nb, planes, &[0], &params, &mut Silent)
             .unwrap();
         assert_eq!(more, 0);
+    }
+
+    /// Going back to a checkpoint gives the clusters it kept, labels and all.
+    #[test]
+    fn a_restored_checkpoint_is_the_same_clustering() {
+        let mut buf = vec![MaybeUninit::uninit(); 4 * 1024 * 1024];
+        let arena = Arena::new(&mut buf);
+        let plate = plate(&arena);
+        let (points, nb, planes) = &plate;
+        let seeds_at = [at(2, 2), at(8, 2), at(2, 8), at(8, 8)];
+        let m = seeds_at.len();
+        let mut state = clustered_plate(&arena, &plate, &seeds_at, m);
+        let params = Params::default();
+        assert!(state.checkpoint());
+        let labels = state.labels.to_vec();
+        let generators = state.generators[..m].to_vec();
+        let added = state
+            .refine(&arena, points, nb, planes, &[0, 1], &params, &mut Silent)
+            .unwrap();
+        assert_eq!(added, 2);
+        assert_ne!(state.labels.to_vec(), labels, "the split changed nothing");
+        state
+            .restore(&arena, points, nb, planes, m, &params, &mut Silent)
+            .unwrap();
+        assert_eq!(state.m, m);
+        assert_eq!(state.labels.to_vec(), labels);
+        assert_eq!(state.generators[..m].to_vec(), generators);
+        assert_eq!(state.seeds[..m].to_vec(), seeds_at.to_vec());
+        // More clusters than the copies hold: nothing kept.
+        state
+            .refine(&arena, points, nb, planes, &[0], &params, &mut Silent)
+            .unwrap();
+        assert!(!state.checkpoint());
     }
 
     /// In a round for the genus, a rim point that alone makes its cluster
