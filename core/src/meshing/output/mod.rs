@@ -240,14 +240,25 @@ pub enum Output {
     IfNoGaps {
         /// The refinement distance the gaps' bound is a multiple of.
         max_distance: f32,
-        /// Also only when every cluster with points has a face (as
-        /// [`Output::IfCovered`]).
-        covered: bool,
+        /// Whether clusters left out also call for a redo, and when.
+        covered: Cover,
     },
     /// Only when every cluster with points has a face (a round that may split
     /// clusters left out past the cap, [`crate::params::GAP_ROOM`]); any
     /// distance otherwise.
     IfCovered,
+}
+
+/// When a round for the genus ([`Output::IfNoGaps`]) also asks that every
+/// cluster with points has a face.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Cover {
+    /// It does not.
+    No,
+    /// Before the gaps: clusters left out are redone first.
+    First,
+    /// After them: where no face spans a gap, clusters left out are redone.
+    After,
 }
 
 /// Build the mesh of the `selected` candidate facets, closing boundary loops of
@@ -475,7 +486,10 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             // splits first; with one, and after them, the points farthest
             // from the mesh are.
             Output::IfFaithful { .. }
-            | Output::IfNoGaps { covered: true, .. }
+            | Output::IfNoGaps {
+                covered: Cover::First,
+                ..
+            }
             | Output::IfCovered
                 if uncovered_clusters > 0 && params.max_error <= 0.0 =>
             {
@@ -744,6 +758,17 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
         stats.far_clusters = far;
         let redo = if far_points { far } else { stats.gap_rims };
         if redo > 0 && max_distance.is_finite() {
+            return Ok((None, stats));
+        }
+        // No gap: clusters left out (still at the front of `uncovered`).
+        let after = matches!(
+            output,
+            Output::IfNoGaps {
+                covered: Cover::After,
+                ..
+            }
+        );
+        if after && stats.uncovered_clusters > 0 && params.max_error <= 0.0 {
             return Ok((None, stats));
         }
         let mesh = Mesh {
