@@ -315,14 +315,14 @@ pub fn reconstruct_with_rows<'a>(
             // what the mesh leaves out (the gear at 250 clusters, 20
             // iterations, seed 3: 60 clusters left out, 1 after a round of
             // rims).
-            let covered = match (covered, splits_first) {
+            let cover = match (covered, splits_first) {
                 (false, _) => Cover::No,
                 (true, false) => Cover::After,
                 (true, true) => Cover::First,
             };
             Output::IfNoGaps {
                 max_distance,
-                covered,
+                covered: cover,
             }
         } else if covered {
             Output::IfCovered
@@ -389,34 +389,31 @@ pub fn reconstruct_with_rows<'a>(
         // Rounds for the genus (rims of gaps found) and for clusters left out
         // go past the cap.
         let genus = matches!(output, Output::IfNoGaps { .. }) && n_far > 0;
+        // A round judged by the next mesh: rims in a round that also left
+        // clusters out, or a split of clusters left out that goes past the
+        // cap (kept clusters: at most the cap, so only a split past it).
+        let m = state.view().generators.len();
+        let left = stats.mesh.uncovered_points;
+        let after = matches!(
+            output,
+            Output::IfNoGaps {
+                covered: Cover::After,
+                ..
+            }
+        );
+        let judge_rims = genus && left > 0 && after;
+        let judge_split = n_far == 0 && params.max_error <= 0.0;
+        let kept = (judge_rims || judge_split) && state.checkpoint();
         let more = if n_far > 0 {
-            let m = state.view().generators.len();
-            let left = stats.mesh.uncovered_points;
-            let judge = matches!(
-                output,
-                Output::IfNoGaps {
-                    covered: Cover::After,
-                    ..
-                }
-            ) && genus
-                && left > 0;
-            let kept = judge && state.checkpoint();
-            let more = state.refine_at(
+            state.refine_at(
                 arena, points, nb, planes, far, rims, genus, open, params, progress,
-            )?;
-            if kept && more > 0 {
-                judged = Some((m, left, more as u32, true));
-            }
-            more
+            )?
         } else {
-            let m = state.view().generators.len();
-            let kept = params.max_error <= 0.0 && state.checkpoint();
-            let more = state.refine(arena, points, nb, planes, targets, params, progress)?;
-            if kept && state.past_cap() {
-                judged = Some((m, stats.mesh.uncovered_points, more as u32, false));
-            }
-            more
+            state.refine(arena, points, nb, planes, targets, params, progress)?
         };
+        if kept && more > 0 && (judge_rims || state.past_cap()) {
+            judged = Some((m, left, more as u32, judge_rims));
+        }
         if more == 0 {
             // Nothing to split. After a round that only asked for cover (no
             // room under the cap), the rounds go on as they would have without
