@@ -23,6 +23,8 @@ use crate::arena::Alloc;
 use crate::clustering::knn::Neighbours;
 use crate::error::Result;
 use crate::math::{cross, dist2, dot, norm, perpendicular, sub, V3};
+use crate::parallel;
+use crate::progress::Progress;
 use crate::union_find::UnionFind;
 
 /// Points of each cluster, contiguous.
@@ -199,12 +201,83 @@ pub fn try_pieces_in<'a, 'b, A: Alloc<'b>>(
 /// two clusters need to be candidate-adjacent.
 pub const MIN_LINKS: u32 = 2;
 
+/// Neighbouring clusters whose links a cluster counts in a table of its own
+/// ([`LinkTable`]), in parallel tasks; a cluster with more is counted on the
+/// calling thread, over an array of a slot per cluster.
+const LINKS_CAP: usize = 32;
+/// Slots of a [`LinkTable`]: at most half of them in use.
+const LINK_SLOTS: usize = 2 * LINKS_CAP;
+/// Marks a cluster with more than [`LINKS_CAP`] neighbouring clusters.
+const LARGE: u32 = u32::MAX;
+
+/// Links from one cluster to each of its neighbouring clusters: an
+/// open-addressing table of at most [`LINKS_CAP`] clusters.
+struct LinkTable {
+    cluster: [u32; LINK_SLOTS],
+    links: [u32; LINK_SLOTS],
+    len: usize,
+    /// Clusters it may hold, at most [`LINKS_CAP`].
+    cap: usize,
+}
+
+impl LinkTable {
+    fn new(cap: usize) -> Self {
+        LinkTable {
+            cluster: [u32::MAX; LINK_SLOTS],
+            links: [0; LINK_SLOTS],
+            len: 0,
+            cap: cap.min(LINKS_CAP),
+        }
+    }
+
+    fn slot(&self, b: u32) -> usize {
+        let mut i = (b.wrapping_mul(0x9E37_79B9) >> 25) as usize % LINK_SLOTS;
+        while self.cluster[i] != b && self.cluster[i] != u32::MAX {
+            i = (i + 1) % LINK_SLOTS;
+        }
+        i
+    }
+
+    /// One more link to `b`; `None` when `b` would be one cluster too many.
+    fn add(&mut self, b: u32) -> Option<()> {
+        let i = self.slot(b);
+        if self.cluster[i] == u32::MAX {
+            if self.len == self.cap {
+                return None;
+            }
+            self.cluster[i] = b;
+            self.len += 1;
+        }
+        self.links[i] = self.links[i].saturating_add(1);
+        Some(())
+    }
+
+    /// Links to `b` (0 for a cluster not in the table).
+    fn links(&self, b: u32) -> u32 {
+        let i = self.slot(b);
+        if self.cluster[i] == b {
+            self.links[i]
+        } else {
+            0
+        }
+    }
+
+    /// The clusters in the table.
+    fn clusters(&self) -> impl Iterator<Item = u32> + '_ {
+        self.cluster.iter().copied().filter(|&b| b != u32::MAX)
+    }
+}
+
 /// Build the candidates from the cluster representatives `rep` (see
 /// [`try_merge_in`]) and `members` grouped by them; `generators[j]` is cluster
-/// `j`'s vertex and `diag` the bounding-box diagonal.
+/// `j`'s vertex and `diag` the bounding-box diagonal. The links between
+/// clusters are counted cluster by cluster in parallel tasks of `hooks` (a
+/// cluster with more than [`LINKS_CAP`] neighbouring clusters on the calling
+/// thread); the candidates do not depend on how the tasks run.
 #[allow(clippy::too_many_arguments)]
 pub fn try_candidates_in<'a, 'b, A: Alloc<'b>>(
     arena: &'a A,
+    hooks: &dyn Progress,
     nb: &Neighbours,
     labels: &[u32],
     rep: &'a [u32],
@@ -212,6 +285,26 @@ pub fn try_candidates_in<'a, 'b, A: Alloc<'b>>(
     members: &Members,
     generators: &[V3],
     diag: f32,
+) -> Result<Candidates<'a>> {
+    candidates_counting_in(
+        arena, hooks, nb, labels, rep, merged, members, generators, diag, LINKS_CAP,
+    )
+}
+
+/// [`try_candidates_in`], the links of a cluster with more than `links_cap`
+/// neighbouring clusters counted on the calling thread.
+#[allow(clippy::too_many_arguments)]
+fn candidates_counting_in<'a, 'b, A: Alloc<'b>>(
+    arena: &'a A,
+    hooks: &dyn Progress,
+    nb: &Neighbours,
+    labels: &[u32],
+    rep: &'a [u32],
+    merged: u32,
+    members: &Members,
+    generators: &[V3],
+    diag: f32,
+    links_cap: usize,
 ) -> Result<Candidates<'a>> {
     let m = generators.len();
     let tol = COINCIDENT * diag;
@@ -223,7 +316,43 @@ pub fn try_candidates_in<'a, 'b, A: Alloc<'b>>(
     //    clusters around `a`: no generator of a more strongly linked cluster lies
     //    inside the sphere on the segment between the two generators.
     let up_start = arena.try_alloc_slice::<u32>(m + 1, 0)?;
-    let links_pass = |a: usize, links: &mut [u32], touched: &mut [u32], f: &mut dyn FnMut(u32)| {
+    // Whether `a`, linked `links(b)` times to each of `near`, keeps its pair
+    // with `b` (see above).
+    let keeps =
+        |a: usize, b: u32, near: &mut dyn Iterator<Item = u32>, links: &dyn Fn(u32) -> u32| {
+            links(b) >= MIN_LINKS || {
+                let (ga, gb) = (generators[a], generators[b as usize]);
+                let mid = [0, 1, 2].map(|i| 0.5 * (ga[i] + gb[i]));
+                let r2 = 0.25 * dist2(ga, gb);
+                !Iterator::any(&mut &mut *near, |c| {
+                    c != b && links(c) >= MIN_LINKS && dist2(generators[c as usize], mid) < r2
+                })
+            }
+        };
+    // Every representative's upper neighbours that it keeps, given to `f`:
+    // the links counted in a small table of its own (`None` when it has more
+    // than `LINKS_CAP` neighbouring clusters, for the pass below), so that
+    // clusters are independent tasks.
+    let kept_small = |a: usize, f: &mut dyn FnMut(u32)| -> Option<()> {
+        let mut table = LinkTable::new(links_cap);
+        for &p in members.of(a) {
+            for q in nb.symmetric(p as usize) {
+                if let Some(&b) = rep.get(labels[q as usize] as usize) {
+                    if b as usize != a {
+                        table.add(b)?;
+                    }
+                }
+            }
+        }
+        for b in table.clusters() {
+            if b as usize > a && keeps(a, b, &mut table.clusters(), &|c| table.links(c)) {
+                f(b);
+            }
+        }
+        Some(())
+    };
+    // The same over arrays of a slot per cluster, on the calling thread.
+    let kept_large = |a: usize, links: &mut [u32], touched: &mut [u32], f: &mut dyn FnMut(u32)| {
         let mut t = 0;
         for &p in members.of(a) {
             for q in nb.symmetric(p as usize) {
@@ -239,22 +368,13 @@ pub fn try_candidates_in<'a, 'b, A: Alloc<'b>>(
                 }
             }
         }
-        let ga = generators[a];
         for &b in &touched[..t] {
-            if (b as usize) <= a {
-                continue;
-            }
-            let keep = links[b as usize] >= MIN_LINKS || {
-                let gb = generators[b as usize];
-                let mid = [0, 1, 2].map(|i| 0.5 * (ga[i] + gb[i]));
-                let r2 = 0.25 * dist2(ga, gb);
-                !touched[..t].iter().any(|&c| {
-                    c != b
-                        && links[c as usize] >= MIN_LINKS
-                        && dist2(generators[c as usize], mid) < r2
+            let links = &*links;
+            if b as usize > a
+                && keeps(a, b, &mut touched[..t].iter().copied(), &|c| {
+                    links[c as usize]
                 })
-            };
-            if keep {
+            {
                 f(b);
             }
         }
@@ -262,38 +382,75 @@ pub fn try_candidates_in<'a, 'b, A: Alloc<'b>>(
             links[b as usize] = 0;
         }
     };
+    let ours = |a: usize| rep[a] as usize == a;
+    parallel::rows(hooks, &mut up_start[1..], 1, |clusters, out: &mut [u32]| {
+        for (a, count) in clusters.zip(out.iter_mut()) {
+            *count = 0;
+            if ours(a) && kept_small(a, &mut |_| *count += 1).is_none() {
+                *count = LARGE;
+            }
+        }
+    });
+    let large = up_start[1..].contains(&LARGE);
     arena.scratch(|s| -> Result<()> {
-        let links = s.try_alloc_slice::<u32>(m, 0)?;
-        let touched = s.try_alloc_slice::<u32>(m, 0)?;
+        let links = s.try_alloc_slice::<u32>(if large { m } else { 0 }, 0)?;
+        let touched = s.try_alloc_slice::<u32>(if large { m } else { 0 }, 0)?;
         for a in 0..m {
-            if rep[a] as usize == a {
+            if up_start[a + 1] == LARGE {
                 let mut count = 0u32;
-                links_pass(a, links, touched, &mut |_| count += 1);
+                kept_large(a, links, touched, &mut |_| count += 1);
                 up_start[a + 1] = count;
             }
         }
+        for a in 0..m {
+            up_start[a + 1] += up_start[a];
+        }
         Ok(())
     })?;
-    for a in 0..m {
-        up_start[a + 1] += up_start[a];
-    }
     let up = arena.try_alloc_slice::<u32>(up_start[m] as usize, 0)?;
-    arena.scratch(|s| -> Result<()> {
-        let links = s.try_alloc_slice::<u32>(m, 0)?;
-        let touched = s.try_alloc_slice::<u32>(m, 0)?;
-        for a in 0..m {
-            if rep[a] as usize == a {
-                let lo = up_start[a] as usize;
-                let mut w = lo;
-                links_pass(a, links, touched, &mut |b| {
+    let up_start = &*up_start;
+    let at = |a: usize| up_start[a.min(m)] as usize;
+    let done = parallel::segments(hooks, up, m, at, |clusters, part: &mut [u32]| {
+        let base = at(clusters.start);
+        let mut large = false;
+        for a in clusters {
+            let lo = at(a) - base;
+            let mut w = lo;
+            if ours(a)
+                && kept_small(a, &mut |b| {
+                    if let Some(slot) = part.get_mut(w) {
+                        *slot = b;
+                    }
+                    w += 1;
+                })
+                .is_none()
+            {
+                large = true;
+                continue;
+            }
+            let end = w.min(part.len());
+            part[lo..end].sort_unstable();
+        }
+        large
+    });
+    if done.contains(&true) {
+        arena.scratch(|s| -> Result<()> {
+            let links = s.try_alloc_slice::<u32>(m, 0)?;
+            let touched = s.try_alloc_slice::<u32>(m, 0)?;
+            for a in 0..m {
+                if !ours(a) || kept_small(a, &mut |_| {}).is_some() {
+                    continue;
+                }
+                let (lo, mut w) = (at(a), at(a));
+                kept_large(a, links, touched, &mut |b| {
                     up[w] = b;
                     w += 1;
                 });
                 up[lo..w].sort_unstable();
             }
-        }
-        Ok(())
-    })?;
+            Ok(())
+        })?;
+    }
     // 2. Both directions, each list ascending (lower neighbours arrive first, in
     //    order, then the upper ones).
     let full_start = arena.try_alloc_slice::<u32>(m + 1, 0)?;
@@ -626,4 +783,86 @@ pub fn try_fold_groups_in<'a, 'b, A: Alloc<'b>>(
         facet_groups,
         count,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::arena::Arena;
+    use crate::clustering::knn::try_neighbours_in;
+    use crate::params::Params;
+    use crate::progress::Silent;
+    use core::mem::MaybeUninit;
+    use std::vec;
+    use std::vec::Vec;
+
+    /// A hub: a disc of one cluster on a 61 x 61 plate of spacing 1, ringed
+    /// by 80 wedge clusters, the rest of the plate in 6 x 6 blocks. The hub
+    /// touches more clusters than a table of [`LINKS_CAP`] holds, the others
+    /// fewer: counted in parallel tasks and on the calling thread, with every
+    /// cluster counted on the calling thread, the candidates are the same.
+    #[test]
+    fn links_counted_in_tables_and_in_arrays_give_the_same_candidates() {
+        let side = 61;
+        let points: Vec<V3> = (0..side * side)
+            .map(|i| [(i % side) as f32, (i / side) as f32, 0.0])
+            .collect();
+        let c = (side / 2) as f32;
+        let labels: Vec<u32> = points
+            .iter()
+            .map(|p| {
+                let (dx, dy) = (p[0] - c, p[1] - c);
+                let r = libm::sqrtf(dx * dx + dy * dy);
+                if r <= 8.0 {
+                    0
+                } else if r <= 14.0 {
+                    let turn = (libm::atan2f(dy, dx) / core::f32::consts::TAU + 1.0).fract();
+                    1 + ((turn * 80.0) as u32).min(79)
+                } else {
+                    81 + (p[1] as u32 / 6) * 11 + p[0] as u32 / 6
+                }
+            })
+            .collect();
+        let m = *labels.iter().max().unwrap() as usize + 1;
+        let mut generators = vec![[0.0f32; 3]; m];
+        let mut count = vec![0.0f32; m];
+        for (p, &l) in points.iter().zip(&labels) {
+            for a in 0..3 {
+                generators[l as usize][a] += p[a];
+            }
+            count[l as usize] += 1.0;
+        }
+        for (g, &n) in generators.iter_mut().zip(&count) {
+            *g = g.map(|v| v / n.max(1.0));
+        }
+        let mut buf = vec![MaybeUninit::<u8>::uninit(); 1 << 24];
+        let arena = Arena::new(&mut buf);
+        let nb = try_neighbours_in(&arena, &points, Params::default().k, &mut Silent).unwrap();
+        let diag = 60.0 * core::f32::consts::SQRT_2;
+        let (rep, merged) = try_merge_in(&arena, &generators, diag).unwrap();
+        let members = try_members_in(&arena, &labels, rep).unwrap();
+        let run = |cap| {
+            candidates_counting_in(
+                &arena,
+                &Silent,
+                &nb,
+                &labels,
+                rep,
+                merged,
+                &members,
+                &generators,
+                diag,
+                cap,
+            )
+            .unwrap()
+        };
+        let (tables, arrays) = (run(LINKS_CAP), run(0));
+        let hub = tables.edges.iter().filter(|e| e[0] == 0).count();
+        assert!(hub > LINKS_CAP, "the hub has {hub} upper neighbours");
+        assert!(tables.edges.len() > 2 * m, "{} edges", tables.edges.len());
+        assert_eq!(tables.edges, arrays.edges);
+        assert_eq!(tables.edge_start, arrays.edge_start);
+        assert_eq!(tables.facets, arrays.facets);
+        assert_eq!(tables.facet_edges, arrays.facet_edges);
+    }
 }

@@ -65,7 +65,9 @@ pub(crate) fn try_problem_in<'s, 'b, A: Alloc<'b>>(
     let (rep, merged) = candidates::try_merge_in(s, gens, diag)?;
     let members = candidates::try_members_in(s, c.labels, rep)?;
     let piece = candidates::try_pieces_in(s, nb, c.labels, rep)?;
-    let cand = candidates::try_candidates_in(s, nb, c.labels, rep, merged, &members, gens, diag)?;
+    let cand = candidates::try_candidates_in(
+        s, &*progress, nb, c.labels, rep, merged, &members, gens, diag,
+    )?;
     // Clusters on the border of the data; their vertices move onto it.
     let per_edge = candidates::try_facets_per_edge_in(s, &cand)?;
     let moved = s.try_alloc_copy(gens)?;
