@@ -479,6 +479,16 @@ pub fn atomic_u32s(values: &mut [u32]) -> &mut [core::sync::atomic::AtomicU32] {
     unsafe { &mut *(values as *mut [u32] as *mut [core::sync::atomic::AtomicU32]) }
 }
 
+/// `values` as atomic `u32`s holding their bits (see [`atomic_bytes`]): each
+/// set whole with `f32::to_bits` by one task, read as `f32`s again once the
+/// view is dropped.
+pub fn atomic_f32_bits(values: &mut [f32]) -> &[core::sync::atomic::AtomicU32] {
+    // SAFETY: `AtomicU32` has the size and alignment of `f32`, every bit
+    // pattern is valid for both, and the exclusive borrow of `values` for the
+    // result's lifetime rules out non-atomic access meanwhile.
+    unsafe { &*(values as *mut [f32] as *const [core::sync::atomic::AtomicU32]) }
+}
+
 /// Atomic `u32`s as plain values again, once no other thread holds them.
 pub fn plain_u32s(values: &mut [core::sync::atomic::AtomicU32]) -> &mut [u32] {
     // SAFETY: as for `atomic_u32s`, the other way; the exclusive borrow means
@@ -690,6 +700,10 @@ mod tests {
         let atomic = atomic_u32s(words);
         atomic[0].store(u32::MAX, Relaxed);
         assert_eq!(plain_u32s(atomic), [u32::MAX, 7, 7, 7]);
+        let floats = a.try_alloc_slice::<f32>(2, 0.5).unwrap();
+        assert_eq!(atomic_f32_bits(floats)[1].load(Relaxed), 0.5f32.to_bits());
+        atomic_f32_bits(floats)[0].store((-3.25f32).to_bits(), Relaxed);
+        assert_eq!(floats, [-3.25, 0.5]);
     }
 
     #[cfg(feature = "bumpalo")]

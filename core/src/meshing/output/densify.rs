@@ -17,18 +17,22 @@
 //!
 //! Memory: scratch only, O(clusters + vertices) for the candidates and marks,
 //! plus a face grid per pass. Cost per pass: O(faces) per split, plus a grid
-//! and the queries of the touched clusters' points.
+//! and the queries of the touched clusters' points. The queries and each
+//! cluster's farthest point are parallel tasks (over ranges of clusters and of
+//! the farthest points), the grid and the splits on the calling thread.
 
 use super::insert::split_at;
 use super::repair::mark_tangles;
-use crate::arena::Alloc;
+use crate::arena::{atomic_f32_bits, Alloc};
 use crate::clustering::knn::Neighbours;
 use crate::clustering::quadric::{plane_eval, plane_weight, Planes};
 use crate::error::Result;
 use crate::math::{closest_on_triangle, norm, sub, V3};
 use crate::meshing::candidates::Members;
 use crate::meshing::face_grid::FaceGrid;
+use crate::parallel;
 use crate::progress::Progress;
+use core::sync::atomic::Ordering::Relaxed;
 
 /// How far above the planes' noise floor half a point's distance must be
 /// before its neighbours' tangent planes can vouch for it: on the bunny with
@@ -39,6 +43,9 @@ const PLANE_NOISE: f32 = 4.0;
 
 /// Passes of putting the vertices of tangled faces back home at most.
 pub const UNTANGLE_PASSES: u32 = 8;
+/// A cluster's slot of the farthest points when it has none.
+const NOT_FAR: (f32, u32, u32) = (0.0, u32::MAX, u32::MAX);
+
 /// Passes of adding vertices at most.
 pub const DENSIFY_PASSES: u32 = 8;
 
@@ -199,7 +206,8 @@ pub(super) struct Densified {
 /// each pass those of the points in the clusters of the vertices it touched
 /// are measured again (the others change little), so on return they are
 /// stale: measure again after moving the vertices. The buffers of `mesh` must
-/// have room for `budget` more vertices and `2 × budget` more faces.
+/// have room for `budget` more vertices and `2 × budget` more faces. `hooks`
+/// run the parallel tasks.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn densify<'b, S: Alloc<'b>>(
     s: &S,
@@ -213,6 +221,7 @@ pub(super) fn densify<'b, S: Alloc<'b>>(
     threshold: f32,
     bound: f32,
     tol: f32,
+    hooks: &dyn Progress,
 ) -> Result<Densified> {
     let threshold = threshold.min(bound);
     let mut out = Densified::default();
@@ -241,55 +250,77 @@ pub(super) fn densify<'b, S: Alloc<'b>>(
             let (nv, nf) = (mesh.nv, mesh.nf);
             let count = s.scratch(|g| -> Result<usize> {
                 let grid = FaceGrid::try_new_in(g, &mesh.vertices[..nv], &mesh.triangles[..nf])?;
-                for (j, _) in again.iter().enumerate().filter(|(_, &a)| a) {
-                    for &i in members.of(j) {
-                        if let (Some(&p), Some(d)) =
-                            (points.get(i as usize), distances.get_mut(i as usize))
-                        {
-                            *d = grid
-                                .nearest(p)
-                                .map_or(f32::INFINITY, |(_, d2)| libm::sqrtf(d2));
+                // Parallel tasks over ranges of clusters; each point is in
+                // one cluster, so each distance is set by one task.
+                let fresh = atomic_f32_bits(distances);
+                let again = &*again;
+                parallel::ranges(hooks, members.len(), |clusters| {
+                    for j in clusters.filter(|&j| again[j]) {
+                        for &i in members.of(j) {
+                            if let (Some(&p), Some(d)) =
+                                (points.get(i as usize), fresh.get(i as usize))
+                            {
+                                let e = grid
+                                    .nearest(p)
+                                    .map_or(f32::INFINITY, |(_, d2)| libm::sqrtf(d2));
+                                d.store(e.to_bits(), Relaxed);
+                            }
                         }
                     }
-                }
+                });
+                let distances = &*distances;
                 // Each cluster's farthest point beyond the threshold that is
                 // part of the surface the mesh misses ([`supported`]), or
                 // beyond the bound. (distance, point, cluster), farthest
                 // first (lower point index among equals).
                 let supported =
                     |i: u32, e: f32| e > bound || supported(points, nb, planes, distances, i, e);
-                let mut count = 0;
-                for j in 0..members.len() {
-                    let mut best: Option<(f32, u32)> = None;
-                    for &i in members.of(j) {
-                        let Some(&e) = distances.get(i as usize) else {
-                            continue;
-                        };
-                        let better = match best {
-                            None => true,
-                            Some((x, b)) => e > x || (e == x && i < b),
-                        };
-                        if e > threshold && e.is_finite() && better && supported(i, e) {
-                            best = Some((e, i));
+                // In parallel tasks over ranges of clusters, each into its
+                // cluster's slot of `far` (`NOT_FAR` for none), then gathered
+                // in cluster order.
+                let m = members.len().min(far.len());
+                parallel::rows(hooks, &mut far[..m], 1, |clusters, out| {
+                    for (j, slot) in clusters.zip(out.iter_mut()) {
+                        let mut best: Option<(f32, u32)> = None;
+                        for &i in members.of(j) {
+                            let Some(&e) = distances.get(i as usize) else {
+                                continue;
+                            };
+                            let better = match best {
+                                None => true,
+                                Some((x, b)) => e > x || (e == x && i < b),
+                            };
+                            if e > threshold && e.is_finite() && better && supported(i, e) {
+                                best = Some((e, i));
+                            }
                         }
+                        *slot = match best {
+                            Some((e, i)) if (i as usize) < points.len() => (e, i, j as u32),
+                            _ => NOT_FAR,
+                        };
                     }
-                    if let Some((e, i)) = best {
-                        if (i as usize) < points.len() {
-                            far[count] = (e, i, j as u32);
-                            count += 1;
-                        }
+                });
+                let mut count = 0;
+                for j in 0..m {
+                    if far[j].1 != NOT_FAR.1 {
+                        far[count] = far[j];
+                        count += 1;
                     }
                 }
                 let far = &mut far[..count];
                 far.sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
-                for (&(_, i, _), a) in far.iter().zip(at.iter_mut()) {
-                    let p = points[i as usize];
-                    *a = (u32::MAX, [0.0; 3]);
-                    if let Some((f, _)) = grid.nearest(p) {
-                        let c = mesh.triangles[f as usize].map(|v| mesh.vertices[v as usize]);
-                        *a = (f, closest_on_triangle(p, c[0], c[1], c[2]).1);
+                let far = &*far;
+                let (vertices, triangles) = (&*mesh.vertices, &*mesh.triangles);
+                parallel::rows(hooks, &mut at[..count], 1, |items, out| {
+                    for (k, a) in items.zip(out.iter_mut()) {
+                        let p = points[far[k].1 as usize];
+                        *a = (u32::MAX, [0.0; 3]);
+                        if let Some((f, _)) = grid.nearest(p) {
+                            let c = triangles[f as usize].map(|v| vertices[v as usize]);
+                            *a = (f, closest_on_triangle(p, c[0], c[1], c[2]).1);
+                        }
                     }
-                }
+                });
                 Ok(count)
             })?;
             let far = &far[..count];

@@ -601,7 +601,7 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             // Under an error bound every point beyond it is wanted in.
             let bound = params.max_distance(diag);
             let done = densify(
-                s, points, members, nb, planes, &mut mesh, d, extra, p99, bound, tol,
+                s, points, members, nb, planes, &mut mesh, d, extra, p99, bound, tol, hooks,
             )?;
             stats.densified = done.added;
         }
