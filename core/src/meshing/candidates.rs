@@ -272,7 +272,7 @@ impl LinkTable {
 /// [`try_merge_in`]) and `members` grouped by them; `generators[j]` is cluster
 /// `j`'s vertex and `diag` the bounding-box diagonal. The links between
 /// clusters are counted cluster by cluster in parallel tasks of `hooks` (a
-/// cluster with more than [`LINKS_CAP`] neighbouring clusters on the calling
+/// cluster with more than 32 neighbouring clusters on the calling
 /// thread); the candidates do not depend on how the tasks run.
 #[allow(clippy::too_many_arguments)]
 pub fn try_candidates_in<'a, 'b, A: Alloc<'b>>(
