@@ -437,7 +437,9 @@ fn candidates_counting_in<'a, 'b, A: Alloc<'b>>(
         arena.scratch(|s| -> Result<()> {
             let links = s.try_alloc_slice::<u32>(m, 0)?;
             let touched = s.try_alloc_slice::<u32>(m, 0)?;
-            for a in 0..m {
+            // Only the tasks that met such a cluster are looked at again.
+            let ranges = (0..parallel::TASKS).filter(|&t| done[t]);
+            for a in ranges.flat_map(|t| parallel::range(m, t)) {
                 if !ours(a) || kept_small(a, &mut |_| {}).is_some() {
                     continue;
                 }

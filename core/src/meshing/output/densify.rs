@@ -43,11 +43,10 @@ const PLANE_NOISE: f32 = 4.0;
 
 /// Passes of putting the vertices of tangled faces back home at most.
 pub const UNTANGLE_PASSES: u32 = 8;
-/// A cluster's slot of the farthest points when it has none.
-const NOT_FAR: (f32, u32, u32) = (0.0, u32::MAX, u32::MAX);
-
 /// Passes of adding vertices at most.
 pub const DENSIFY_PASSES: u32 = 8;
+/// A cluster's slot of the farthest points when it has none.
+const NOT_FAR: (f32, u32, u32) = (0.0, u32::MAX, u32::MAX);
 
 /// A mesh being refined: positions, faces and where each vertex came from,
 /// in buffers with room to grow.
