@@ -75,6 +75,14 @@ pub trait Progress {
             t.run();
         }
     }
+
+    /// How many tasks [`Progress::run`] runs at once (the default: 1, one
+    /// after another). Core may pick the way it cuts a stage's work by it
+    /// (region growing runs in two halves from 2 on); the result never
+    /// depends on it.
+    fn threads(&self) -> usize {
+        1
+    }
 }
 
 /// A [`Progress`] that never reports and never cancels.

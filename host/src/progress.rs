@@ -145,6 +145,10 @@ impl Progress for StageClock {
     fn run(&self, tasks: &mut [&mut dyn Task]) {
         run_tasks(self.team.as_ref(), tasks);
     }
+
+    fn threads(&self) -> usize {
+        self.team.as_ref().map_or(1, |t| t.threads())
+    }
 }
 
 /// Runs each task once, on the threads of `team` or, without one, one after

@@ -5,8 +5,13 @@ mod common;
 use common::{bin, dir};
 
 /// Shapes that exercise every parallel stage: closed, with a handle, open
-/// (border loops), noisy (splitting, refinement).
-const CASES: [(&str, &[&str]); 4] = [
+/// (border loops), noisy (splitting, refinement), and large enough for region
+/// growing in slabs (2, 3 and 4 of them on 2, 3 and 8 threads).
+const CASES: [(&str, &[&str]); 5] = [
+    (
+        "demo-slabs",
+        &["--sample", "demo", "--points", "17000", "--clusters", "300"],
+    ),
     (
         "sphere",
         &[

@@ -19,6 +19,7 @@ pub mod knn;
 pub mod normals;
 pub mod partition;
 pub mod quadric;
+mod slabs;
 pub mod split;
 pub(crate) mod sweep;
 

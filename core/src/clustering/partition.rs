@@ -17,6 +17,8 @@
 //!   skipped by a "finalised" bit. When the heap is full it is compacted (stale
 //!   entries recognised by recomputing their cost), so `n` slots always suffice.
 //!   Every label grows from a labelled neighbour, so clusters are connected.
+//!   With two threads or more it runs in slabs, one a thread, and a repair
+//!   that gives the labels of growing as one (`core/src/clustering/slabs.rs`).
 //! - **Update**: `c_j = argmin Σ_{p ∈ j} E(p, c)`: the cluster's summed diffused
 //!   quadric plus the λ term, solved around the cluster centroid
 //!   ([`Quadric::minimizer`]). The next seed of a cluster is its member of least
@@ -29,6 +31,7 @@
 use crate::arena::{padded_bytes, Arena, Scratch};
 use crate::clustering::knn::Neighbours;
 use crate::clustering::quadric::{plane_eval, Planes, Quadric};
+use crate::clustering::slabs;
 use crate::clustering::split;
 use crate::clustering::sweep::{self, Start};
 use crate::error::Result;
@@ -42,7 +45,7 @@ use crate::validate::Bounds;
 
 /// Label of a point not reached yet.
 pub const NONE: u32 = 0x7FFF_FFFF;
-const FINAL: u32 = 0x8000_0000;
+pub(super) const FINAL: u32 = 0x8000_0000;
 
 /// Rounds of splitting whose maximum error is kept in [`ClusterStats`].
 pub const ROUNDS_KEPT: usize = 16;
@@ -921,13 +924,13 @@ fn initial_seeds(s: &Scratch, root: &[u32], seed: u64, seeds: &mut [u32]) -> Res
 const ARITY: usize = 4;
 
 /// Min-heap of packed `(cost bits << 32 | point)` keys over an arena slice.
-struct Heap<'s> {
-    keys: &'s mut [u64],
-    len: usize,
+pub(super) struct Heap<'s> {
+    pub(super) keys: &'s mut [u64],
+    pub(super) len: usize,
 }
 
 impl Heap<'_> {
-    fn push(&mut self, key: u64) -> bool {
+    pub(super) fn push(&mut self, key: u64) -> bool {
         if self.len == self.keys.len() {
             return false;
         }
@@ -945,7 +948,7 @@ impl Heap<'_> {
         true
     }
 
-    fn pop(&mut self) -> Option<u64> {
+    pub(super) fn pop(&mut self) -> Option<u64> {
         if self.len == 0 {
             return None;
         }
@@ -991,7 +994,7 @@ impl Heap<'_> {
     }
 
     /// Keep only entries for which `live` holds, then restore the heap order.
-    fn retain(&mut self, mut live: impl FnMut(u64) -> bool) {
+    pub(super) fn retain(&mut self, mut live: impl FnMut(u64) -> bool) {
         let mut w = 0;
         for r in 0..self.len {
             let k = self.keys[r];
@@ -1008,7 +1011,7 @@ impl Heap<'_> {
 }
 
 #[inline]
-fn key(cost: f32, point: u32) -> u64 {
+pub(super) fn key(cost: f32, point: u32) -> u64 {
     // Non-negative finite floats order like their bit patterns; anything else
     // (never produced from finite input) sorts last.
     let bits = if cost >= 0.0 && cost.is_finite() {
@@ -1022,7 +1025,7 @@ fn key(cost: f32, point: u32) -> u64 {
 }
 
 /// Clusters of each point costed ahead of region growing, [`GUESSES`] a point.
-const GUESSES: usize = 2;
+pub(super) const GUESSES: usize = 2;
 
 /// Region growing from `seeds` (seed Eq. 4). Returns the total energy.
 ///
@@ -1067,6 +1070,15 @@ pub(crate) fn partition(
             }
         });
     }
+    if hooks.threads() > 1 {
+        let guess = &*guess;
+        let grown = s.scratch(|inner| {
+            slabs::grow_in_slabs(inner, ctx, generators, seeds, guess, labels, hooks)
+        });
+        if let Some(energy) = grown {
+            return Ok(energy);
+        }
+    }
     labels.fill(NONE);
     let mut f = Front {
         guess,
@@ -1086,9 +1098,9 @@ pub(crate) fn partition(
     for (j, &sd) in seeds.iter().enumerate() {
         f.labels[sd as usize] = j as u32 | FINAL;
     }
-    let mut energy = 0.0f64;
     for &sd in seeds {
-        energy += grow_from(ctx, generators, &mut f, sd as usize, 0.0);
+        f.best[sd as usize] = 0.0;
+        grow_from(ctx, generators, &mut f, sd as usize);
     }
     while let Some(top) = f.heap.pop() {
         let q = (top & 0xFFFF_FFFF) as usize;
@@ -1103,8 +1115,7 @@ pub(crate) fn partition(
             crate::hint::prefetch(f.labels.as_ptr().wrapping_add(next));
         }
         f.labels[q] |= FINAL;
-        let cost = f32::from_bits((top >> 32) as u32);
-        energy += grow_from(ctx, generators, &mut f, q, cost);
+        grow_from(ctx, generators, &mut f, q);
     }
     let labels = f.labels;
     // Every component holds a seed, so every point was reached; a point that was
@@ -1112,7 +1123,7 @@ pub(crate) fn partition(
     for l in labels.iter_mut() {
         *l &= !FINAL;
     }
-    Ok(energy)
+    Ok(f.best.iter().map(|&c| c as f64).sum())
 }
 
 /// The growing front of a partition: labels (with the final bit), the tentative
@@ -1127,8 +1138,7 @@ struct Front<'s, 'l> {
 }
 
 /// Offer the cluster of the final point `q` to its unfinished neighbours.
-/// Returns `q`'s own cost, for the energy.
-fn grow_from(ctx: &Ctx, generators: &[V3], f: &mut Front, q: usize, cost: f32) -> f64 {
+fn grow_from(ctx: &Ctx, generators: &[V3], f: &mut Front, q: usize) {
     let label = f.labels[q] & !FINAL;
     let c = generators[label as usize];
     // Ask for every neighbour's rows before the first is read: the misses
@@ -1168,7 +1178,6 @@ fn grow_from(ctx: &Ctx, generators: &[V3], f: &mut Front, q: usize, cost: f32) -
             }
         }
     }
-    cost as f64
 }
 
 /// Recompute every generator as its cluster's QEM optimum and pick the next seeds.

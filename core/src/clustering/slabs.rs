@@ -1,0 +1,860 @@
+//! Region growing on every thread with the partition of growing as one.
+//!
+//! Region growing ([`partition`](super::partition)) pops points in the order
+//! of their `(cost, point)` keys and gives each the cluster of the cheapest
+//! offer it holds when popped. Its labels are those of a bottleneck-path
+//! problem, which is what lets two threads compute them:
+//!
+//! - Give each final point `q` a *level* `λ(q)`: 0 for a seed (seeds go first,
+//!   in seed order), else `max(key(q) + 1, λ(r))` with `r` the point whose offer
+//!   `q` holds. It is the largest key popped so far when `q` is popped: a key
+//!   below it pops at once, in the cascade of the point that set the level.
+//! - An offer from final `r` of cluster `l` to `q` is the triple
+//!   `(max(key(cost(q, l), q) + 1, λ(r)), λ(r), l)`. Of two offers the growth
+//!   lets `q` keep the lesser triple: the first entry is when `q` would pop
+//!   holding it, and on a tie, the offer made first wins (the lower level; on
+//!   the same level the same cluster, one cascade floods one cluster; among
+//!   seeds, the lower seed index).
+//! - So every point holds the least offer of its final neighbours, its level
+//!   the first entry of that triple, and every level comes down a chain of
+//!   offers from a seed: the least such assignment, which the growth reaches.
+//!
+//! Here the points are cut into one slab a thread ([`MAX_SLABS`] at most)
+//! across the longest axis of the seeds' box, at quantiles of the seeds. Each
+//! slab grows from its own seeds over its own points on its own thread,
+//! recording each point's level and the point whose offer it holds. Then a
+//! repair on the calling thread makes the union what growing as one gives:
+//!
+//! 1. Points that a neighbour across a cut offers a lesser triple than the
+//!    one they hold, and points no seed of their slab reached, are *reset*,
+//!    with every point whose chain of offers runs through a reset point (its
+//!    descendants: their levels are all higher).
+//! 2. Each reset point takes the least offer of its final neighbours, and the
+//!    reset points grow in the order of their levels, as one growth, each
+//!    offering to every neighbour when final. A final point that is offered a
+//!    lesser triple than its own is reset there, with its descendants (their
+//!    levels are above the one being popped, so nothing final hangs on them),
+//!    and the points holding an offer of a reset point take again the least of
+//!    their final neighbours'.
+//!
+//! The labels are the same as growing as one, bit for bit, whatever the
+//! threads. The partition's energy is summed in point order either way.
+//!
+//! Memory (scratch): 6 words a point (label, cost, last rival, offering
+//! point, level), a byte a point for its slab, the heaps' 8 + 4 bytes and the
+//! reset list's 4 a point, a word a seed. When the scratch has no room, or
+//! the caller runs one thread ([`Progress::threads`]), region growing runs as
+//! one. Cost: the slabs' growths at once, then O(k) per point the repair
+//! grows again (about 2 % of the points on the bunny).
+
+use super::partition::{key, Ctx, Heap, FINAL, GUESSES, NONE};
+use crate::arena::{atomic_u32s, Scratch};
+use crate::math::V3;
+use crate::parallel::Task;
+use crate::progress::Progress;
+use core::sync::atomic::AtomicU32;
+use core::sync::atomic::Ordering::Relaxed;
+
+/// Most slabs of a region growing (one a thread).
+const MAX_SLABS: usize = 8;
+/// Fewest points a slab; fewer grow as one.
+const MIN_SLAB_POINTS: usize = 4096;
+/// Fewest clusters a slab.
+const MIN_SLAB_CLUSTERS: usize = 32;
+
+/// Words of a point's slot.
+const WORDS: usize = 6;
+const LABEL: usize = 0;
+const BEST: usize = 1;
+const TRIED: usize = 2;
+const FROM: usize = 3;
+const LEVEL_HI: usize = 4;
+const LEVEL_LO: usize = 5;
+/// `TRIED` of a final point with a neighbour in another slab.
+const CUT: u32 = FINAL;
+/// `TRIED` of a final point offered a lesser triple across the cut.
+const DIRTY: u32 = FINAL | 1;
+/// The level of a point holding no offer.
+const NO_LEVEL: u64 = u64::MAX;
+
+/// Bytes of scratch [`grow_in_slabs`] takes for `n` points and `m` seeds
+/// (beside the guessed costs), with room for the alignment of each slice.
+fn slabs_bytes(n: usize, m: usize) -> usize {
+    n.saturating_mul(WORDS * 4 + 1 + 8 + 4 + 4)
+        .saturating_add(m.saturating_mul(4))
+        .saturating_add(6 * 64)
+}
+
+/// Every point's slot: [`WORDS`] atomic words, so the slabs grow at once
+/// over one array, each reading and writing only its own points' slots
+/// (relaxed loads and stores: plain moves on the targets we build for).
+struct Slots<'s>(&'s [AtomicU32]);
+
+impl Slots<'_> {
+    #[inline]
+    fn get(&self, p: usize, w: usize, or: u32) -> u32 {
+        self.0.get(WORDS * p + w).map_or(or, |a| a.load(Relaxed))
+    }
+
+    #[inline]
+    fn set(&self, p: usize, w: usize, v: u32) {
+        if let Some(a) = self.0.get(WORDS * p + w) {
+            a.store(v, Relaxed);
+        }
+    }
+
+    #[inline]
+    fn label(&self, p: usize) -> u32 {
+        self.get(p, LABEL, NONE)
+    }
+
+    #[inline]
+    fn best(&self, p: usize) -> f32 {
+        f32::from_bits(self.get(p, BEST, f32::INFINITY.to_bits()))
+    }
+
+    #[inline]
+    fn from(&self, p: usize) -> u32 {
+        self.get(p, FROM, NONE)
+    }
+
+    #[inline]
+    fn level(&self, p: usize) -> u64 {
+        (self.get(p, LEVEL_HI, u32::MAX) as u64) << 32 | self.get(p, LEVEL_LO, u32::MAX) as u64
+    }
+
+    #[inline]
+    fn set_level(&self, p: usize, level: u64) {
+        self.set(p, LEVEL_HI, (level >> 32) as u32);
+        self.set(p, LEVEL_LO, level as u32);
+    }
+
+    /// `p` holds the offer of `from`: cluster `label` at `cost`, level `level`.
+    #[inline]
+    fn hold(&self, p: usize, label: u32, cost: f32, from: u32, level: u64) {
+        self.set(p, LABEL, label);
+        self.set(p, BEST, cost.to_bits());
+        self.set(p, FROM, from);
+        self.set_level(p, level);
+    }
+
+    /// `p` holds nothing.
+    #[inline]
+    fn clear(&self, p: usize) {
+        self.hold(p, NONE, f32::INFINITY, NONE, NO_LEVEL);
+        self.set(p, TRIED, NONE);
+    }
+
+    /// The triple `p` holds (see the module docs); the greatest when none.
+    #[inline]
+    fn standing(&self, p: usize) -> (u64, u64, u32) {
+        let label = self.label(p) & !FINAL;
+        if label == NONE {
+            return (NO_LEVEL, NO_LEVEL, NONE);
+        }
+        let from = self.from(p);
+        let below = if from == NONE {
+            0
+        } else {
+            self.level(from as usize)
+        };
+        (self.level(p), below, label)
+    }
+}
+
+/// What the slabs and the repair read.
+struct Shared<'a, 'p, 'x> {
+    ctx: &'a Ctx<'p, 'x>,
+    generators: &'a [V3],
+    guess: &'a [(u32, f32)],
+    slots: &'a Slots<'a>,
+}
+
+impl Shared<'_, '_, '_> {
+    /// Point `p`'s cost to cluster `label`: its own when it holds that
+    /// cluster, else guessed or computed.
+    #[inline]
+    fn cost(&self, p: usize, label: u32) -> f32 {
+        if self.slots.label(p) & !FINAL == label {
+            return self.slots.best(p);
+        }
+        let guessed = self.guess.get(p * GUESSES..(p + 1) * GUESSES);
+        match guessed.and_then(|g| g.iter().find(|&&(l, _)| l == label)) {
+            Some(&(_, e)) => e,
+            None => match self.generators.get(label as usize) {
+                Some(&c) => self.ctx.cost(p, c),
+                None => f32::INFINITY,
+            },
+        }
+    }
+
+    /// The offer of final point `r` to `q` (see the module docs) and its cost.
+    #[inline]
+    fn offer(&self, r: usize, q: usize) -> ((u64, u64, u32), f32) {
+        let label = self.slots.label(r) & !FINAL;
+        let level = self.slots.level(r);
+        let cost = self.cost(q, label);
+        let at = (key(cost, q as u32) + 1).max(level);
+        ((at, level, label), cost)
+    }
+}
+
+/// One slab's growth, a task of its own.
+struct Slab<'a, 'p, 'x, 'h> {
+    shared: &'a Shared<'a, 'p, 'x>,
+    seeds: &'a [u32],
+    part: &'a [u8],
+    slab: u8,
+    room: &'h mut [u64],
+}
+
+impl Task for Slab<'_, '_, '_, '_> {
+    fn run(&mut self) {
+        let Slab {
+            shared,
+            seeds,
+            part,
+            slab,
+            ..
+        } = *self;
+        let slots = shared.slots;
+        let mine = |p: usize| part.get(p) == Some(&slab);
+        let mut heap = Heap {
+            keys: &mut *self.room,
+            len: 0,
+        };
+        for (j, &sd) in seeds.iter().enumerate() {
+            if mine(sd as usize) {
+                slots.hold(sd as usize, j as u32 | FINAL, 0.0, NONE, 0);
+            }
+        }
+        for &sd in seeds {
+            if mine(sd as usize) {
+                offer_within(shared, &mut heap, part, slab, sd as usize);
+            }
+        }
+        while let Some(top) = heap.pop() {
+            let q = (top & 0xFFFF_FFFF) as usize;
+            let label = slots.label(q);
+            if label & FINAL != 0 {
+                continue;
+            }
+            if heap.len > 0 {
+                let next = (heap.keys[0] & 0xFFFF_FFFF) as usize;
+                let nb = shared.ctx.nb;
+                crate::hint::prefetch(nb.knn.as_ptr().wrapping_add(next * nb.k));
+                crate::hint::prefetch(nb.rev_start.as_ptr().wrapping_add(next));
+                crate::hint::prefetch(slots.0.as_ptr().wrapping_add(WORDS * next));
+            }
+            slots.set(q, LABEL, label | FINAL);
+            let from = slots.from(q) as usize;
+            slots.set_level(q, (top + 1).max(slots.level(from)));
+            offer_within(shared, &mut heap, part, slab, q);
+        }
+    }
+}
+
+/// Offer the cluster of final point `q` to its unfinished neighbours in
+/// `slab`, as region growing does; mark `q` [`CUT`] when a neighbour is in
+/// another slab.
+fn offer_within(shared: &Shared, heap: &mut Heap, part: &[u8], slab: u8, q: usize) {
+    let Shared {
+        ctx,
+        generators,
+        guess,
+        slots,
+    } = *shared;
+    let label = slots.label(q) & !FINAL;
+    let Some(&c) = generators.get(label as usize) else {
+        return;
+    };
+    for nbr in ctx.nb.symmetric(q) {
+        let nbr = nbr as usize;
+        crate::hint::prefetch(ctx.nb.knn.as_ptr().wrapping_add(nbr * ctx.nb.k));
+        crate::hint::prefetch(slots.0.as_ptr().wrapping_add(WORDS * nbr));
+        crate::hint::prefetch(guess.as_ptr().wrapping_add(nbr * GUESSES));
+        crate::hint::prefetch(ctx.planes.planes.as_ptr().wrapping_add(nbr));
+    }
+    let mut cut = false;
+    for nbr in ctx.nb.symmetric(q) {
+        let p = nbr as usize;
+        if part.get(p) != Some(&slab) {
+            cut = true;
+            continue;
+        }
+        let t = slots.label(p);
+        if t & FINAL != 0 || t == label || slots.get(p, TRIED, NONE) == label {
+            continue;
+        }
+        slots.set(p, TRIED, label);
+        let guessed = guess.get(p * GUESSES..(p + 1) * GUESSES);
+        let e = match guessed.and_then(|g| g.iter().find(|&&(l, _)| l == label)) {
+            Some(&(_, e)) => e,
+            None => ctx.cost(p, c),
+        };
+        if t == NONE || e < slots.best(p) {
+            // The level is set when it pops.
+            slots.set(p, LABEL, label);
+            slots.set(p, BEST, e.to_bits());
+            slots.set(p, FROM, q as u32);
+            if !heap.push(key(e, nbr)) {
+                // Full: drop stale entries (final points, superseded costs).
+                heap.retain(|k| {
+                    let p = (k & 0xFFFF_FFFF) as usize;
+                    slots.label(p) & FINAL == 0 && key(slots.best(p), p as u32) == k
+                });
+                // Live entries <= unfinished points of the slab: room now.
+                heap.push(key(e, nbr));
+            }
+        }
+    }
+    if cut {
+        slots.set(q, TRIED, CUT);
+    }
+}
+
+/// One slab's check across the cuts, a task of its own: mark [`DIRTY`] its
+/// final points to which a final neighbour in another slab offers a lesser
+/// triple than the one they hold.
+struct Check<'a, 'p, 'x> {
+    shared: &'a Shared<'a, 'p, 'x>,
+    part: &'a [u8],
+    slab: u8,
+}
+
+impl Task for Check<'_, '_, '_> {
+    fn run(&mut self) {
+        let Check { shared, part, slab } = *self;
+        let slots = shared.slots;
+        for (q, &h) in part.iter().enumerate() {
+            if h != slab || slots.get(q, TRIED, NONE) != CUT || slots.level(q) == 0 {
+                continue;
+            }
+            let held = slots.standing(q);
+            for r in shared.ctx.nb.symmetric(q) {
+                let r = r as usize;
+                if part.get(r) == Some(&slab)
+                    || slots.label(r) & FINAL == 0
+                    || slots.level(r) > held.0
+                {
+                    continue;
+                }
+                if shared.offer(r, q).0 < held {
+                    slots.set(q, TRIED, DIRTY);
+                    break;
+                }
+            }
+        }
+    }
+}
+
+/// The repair on the calling thread (see the module docs): a heap of
+/// `(level, point)` pairs and the list of reset points.
+struct Repair<'a, 'p, 'x, 's> {
+    shared: &'a Shared<'a, 'p, 'x>,
+    levels: &'s mut [u64],
+    points: &'s mut [u32],
+    len: usize,
+    list: &'s mut [u32],
+    listed: usize,
+}
+
+impl Repair<'_, '_, '_, '_> {
+    /// Push `(level, p)`; `false` when the heap is full of live entries.
+    fn push(&mut self, level: u64, p: u32) -> bool {
+        if self.len == self.levels.len() {
+            self.compact();
+            if self.len == self.levels.len() {
+                return false;
+            }
+        }
+        let mut i = self.len;
+        self.len += 1;
+        while i > 0 {
+            let parent = (i - 1) / 2;
+            if (self.levels[parent], self.points[parent]) <= (level, p) {
+                break;
+            }
+            self.levels[i] = self.levels[parent];
+            self.points[i] = self.points[parent];
+            i = parent;
+        }
+        self.levels[i] = level;
+        self.points[i] = p;
+        true
+    }
+
+    fn pop(&mut self) -> Option<(u64, u32)> {
+        if self.len == 0 {
+            return None;
+        }
+        let top = (self.levels[0], self.points[0]);
+        self.len -= 1;
+        self.levels[0] = self.levels[self.len];
+        self.points[0] = self.points[self.len];
+        self.sift_down(0);
+        Some(top)
+    }
+
+    fn sift_down(&mut self, mut i: usize) {
+        if i >= self.len {
+            return;
+        }
+        let moving = (self.levels[i], self.points[i]);
+        loop {
+            let a = 2 * i + 1;
+            if a >= self.len {
+                break;
+            }
+            let b = a + 1;
+            let at = if b < self.len
+                && (self.levels[b], self.points[b]) < (self.levels[a], self.points[a])
+            {
+                b
+            } else {
+                a
+            };
+            if (self.levels[at], self.points[at]) >= moving {
+                break;
+            }
+            self.levels[i] = self.levels[at];
+            self.points[i] = self.points[at];
+            i = at;
+        }
+        (self.levels[i], self.points[i]) = moving;
+    }
+
+    /// Keep only the entries of points that still hold that level, unfinished.
+    fn compact(&mut self) {
+        let slots = self.shared.slots;
+        let mut w = 0;
+        for r in 0..self.len {
+            let (level, p) = (self.levels[r], self.points[r]);
+            let p_ = p as usize;
+            if slots.label(p_) & FINAL == 0 && slots.level(p_) == level {
+                // One entry a point: a duplicate (same level pushed again
+                // after a reset) is dropped by marking the level taken.
+                self.levels[w] = level;
+                self.points[w] = p;
+                w += 1;
+            }
+        }
+        self.len = w;
+        // Duplicates: sort-free removal by a pass that keeps the first of
+        // each point (the points' TRIED word is free while they are open).
+        let mut kept = 0;
+        for r in 0..self.len {
+            let p = self.points[r] as usize;
+            if slots.get(p, TRIED, NONE) != FINAL | 2 {
+                slots.set(p, TRIED, FINAL | 2);
+                self.levels[kept] = self.levels[r];
+                self.points[kept] = self.points[r];
+                kept += 1;
+            }
+        }
+        for r in 0..kept {
+            slots.set(self.points[r] as usize, TRIED, NONE);
+        }
+        self.len = kept;
+        for i in (0..self.len / 2 + 1).rev() {
+            self.sift_down(i);
+        }
+    }
+
+    /// Open point `z` takes the least offer of its final neighbours (none:
+    /// it holds nothing). `false` when the heap is full.
+    fn gather(&mut self, z: usize) -> bool {
+        let shared = self.shared;
+        let slots = shared.slots;
+        slots.clear(z);
+        let mut best: Option<((u64, u64, u32), f32, u32)> = None;
+        for y in shared.ctx.nb.symmetric(z) {
+            let y_ = y as usize;
+            // An offer is no earlier than its maker's level: one above the
+            // least so far cannot win (no cost computed).
+            if slots.label(y_) & FINAL == 0
+                || best.is_some_and(|((at, _, _), _, _)| slots.level(y_) > at)
+            {
+                continue;
+            }
+            let (o, cost) = shared.offer(y_, z);
+            if best.is_none_or(|(b, _, _)| o < b) {
+                best = Some((o, cost, y));
+            }
+        }
+        match best {
+            Some(((at, _, label), cost, y)) => {
+                slots.hold(z, label, cost, y, at);
+                self.push(at, z as u32)
+            }
+            None => true,
+        }
+    }
+
+    /// Reset final point `root` and its descendants, then let them, and the
+    /// open points holding their offers, take their final neighbours' least
+    /// offers. `false` when the list or the heap is full.
+    fn reset(&mut self, root: usize) -> bool {
+        let slots = self.shared.slots;
+        let nb = self.shared.ctx.nb;
+        let start = self.listed;
+        let Some(slot) = self.list.get_mut(self.listed) else {
+            return false;
+        };
+        *slot = root as u32;
+        self.listed += 1;
+        slots.clear(root);
+        let mut i = start;
+        while i < self.listed {
+            let x = self.list[i];
+            i += 1;
+            for c in nb.symmetric(x as usize) {
+                let c_ = c as usize;
+                if slots.label(c_) & FINAL != 0 && slots.from(c_) == x && slots.level(c_) != 0 {
+                    let Some(slot) = self.list.get_mut(self.listed) else {
+                        return false;
+                    };
+                    *slot = c;
+                    self.listed += 1;
+                    slots.clear(c_);
+                }
+            }
+        }
+        for i in start..self.listed {
+            let z = self.list[i] as usize;
+            // Open points holding an offer of `z` (made while it was final).
+            for w in nb.symmetric(z) {
+                let w_ = w as usize;
+                if slots.label(w_) & FINAL == 0 && slots.from(w_) == z as u32 && !self.gather(w_) {
+                    return false;
+                }
+            }
+            if !self.gather(z) {
+                return false;
+            }
+        }
+        true
+    }
+
+    /// Grow the open points in the order of their levels (see the module
+    /// docs). `false` when the list or the heap ran out of room.
+    fn run(&mut self) -> bool {
+        let shared = self.shared;
+        let slots = shared.slots;
+        while let Some((level, x)) = self.pop() {
+            let x_ = x as usize;
+            let label = slots.label(x_);
+            if label & FINAL != 0 || label == NONE || slots.level(x_) != level {
+                continue;
+            }
+            slots.set(x_, LABEL, label | FINAL);
+            for y in shared.ctx.nb.symmetric(x_) {
+                let y_ = y as usize;
+                let held = slots.label(y_);
+                // Seeds never change, and an offer made at this level cannot
+                // beat a triple held from a lower one (no cost computed).
+                if (held & FINAL != 0 && slots.level(y_) == 0) || slots.level(y_) < level {
+                    continue;
+                }
+                let (o, cost) = shared.offer(x_, y_);
+                if o >= slots.standing(y_) {
+                    continue;
+                }
+                if held & FINAL != 0 {
+                    if !self.reset(y_) {
+                        return false;
+                    }
+                } else {
+                    slots.hold(y_, o.2, cost, x, o.0);
+                    if !self.push(o.0, y) {
+                        return false;
+                    }
+                }
+            }
+        }
+        true
+    }
+}
+
+/// Region growing over `labels.len()` points from `seeds` (their clusters'
+/// generators `generators`, costs `guess` computed ahead, possibly empty) in
+/// slabs at once, one a thread of `hooks`, then repaired (module docs): the
+/// labels of growing as one, and the energy (the points' costs summed in point
+/// order). `None` when `hooks` has one thread, the slabs would be too small,
+/// or the scratch has no room (`labels` untouched).
+pub(crate) fn grow_in_slabs(
+    s: &Scratch,
+    ctx: &Ctx,
+    generators: &[V3],
+    seeds: &[u32],
+    guess: &[(u32, f32)],
+    labels: &mut [u32],
+    hooks: &dyn Progress,
+) -> Option<f64> {
+    let n = labels.len();
+    let slabs = hooks
+        .threads()
+        .min(MAX_SLABS)
+        .min(n / MIN_SLAB_POINTS)
+        .min(seeds.len() / MIN_SLAB_CLUSTERS);
+    if slabs < 2 || s.available() < slabs_bytes(n, seeds.len()) || u32::try_from(n).is_err() {
+        return None;
+    }
+    let bounds = cuts(s, ctx, seeds, slabs)?;
+    let words = s.try_alloc_slice::<u32>(n * WORDS, 0).ok()?;
+    for w in words.chunks_exact_mut(WORDS) {
+        w.copy_from_slice(&[
+            NONE,
+            f32::INFINITY.to_bits(),
+            NONE,
+            NONE,
+            u32::MAX,
+            u32::MAX,
+        ]);
+    }
+    let part = s.try_alloc_slice::<u8>(n, 0).ok()?;
+    let levels = s.try_alloc_slice::<u64>(n, 0).ok()?;
+    let points = s.try_alloc_slice::<u32>(n, 0).ok()?;
+    let list = s.try_alloc_slice::<u32>(n, 0).ok()?;
+    let slots = Slots(atomic_u32s(words));
+    let (axis, bounds) = bounds;
+    let mut count = [0usize; MAX_SLABS];
+    for (h, p) in part.iter_mut().zip(ctx.points) {
+        let slab = bounds[..slabs - 1].iter().filter(|&&b| p[axis] > b).count();
+        *h = slab as u8;
+        count[slab] += 1;
+    }
+    let shared = Shared {
+        ctx,
+        generators,
+        guess,
+        slots: &slots,
+    };
+    {
+        // Each slab's heap in its own part of the room, one slot a point.
+        let mut rest = &mut levels[..];
+        let mut jobs: [Slab; MAX_SLABS] = core::array::from_fn(|i| {
+            let (room, tail) = core::mem::take(&mut rest).split_at_mut(count[i]);
+            rest = tail;
+            Slab {
+                shared: &shared,
+                seeds,
+                part,
+                slab: i as u8,
+                room,
+            }
+        });
+        let mut tasks = jobs.each_mut().map(|j| j as &mut dyn Task);
+        hooks.run(&mut tasks[..slabs]);
+    }
+    {
+        let mut jobs: [Check; MAX_SLABS] = core::array::from_fn(|i| Check {
+            shared: &shared,
+            part,
+            slab: i as u8,
+        });
+        let mut tasks = jobs.each_mut().map(|j| j as &mut dyn Task);
+        hooks.run(&mut tasks[..slabs]);
+    }
+    let mut repair = Repair {
+        shared: &shared,
+        levels,
+        points,
+        len: 0,
+        list,
+        listed: 0,
+    };
+    for p in 0..n {
+        let label = slots.label(p);
+        let fine = if label & FINAL == 0 {
+            repair.gather(p)
+        } else if slots.get(p, TRIED, NONE) == DIRTY {
+            repair.reset(p)
+        } else {
+            true
+        };
+        if !fine {
+            return None;
+        }
+    }
+    if !repair.run() {
+        return None;
+    }
+    let mut energy = 0.0f64;
+    for (p, l) in labels.iter_mut().enumerate() {
+        *l = slots.label(p) & !FINAL;
+        energy += slots.best(p) as f64;
+    }
+    Some(energy)
+}
+
+/// The axis of the longest side of the seeds' box and the `slabs - 1`
+/// coordinates along it that cut the seeds into slabs of equal counts (the
+/// seeds' coordinates sorted in scratch).
+fn cuts(s: &Scratch, ctx: &Ctx, seeds: &[u32], slabs: usize) -> Option<(usize, [f32; MAX_SLABS])> {
+    let at = |sd: u32| ctx.points.get(sd as usize).copied().unwrap_or([0.0; 3]);
+    let mut lo = [f32::INFINITY; 3];
+    let mut hi = [f32::NEG_INFINITY; 3];
+    for &sd in seeds {
+        let p = at(sd);
+        for a in 0..3 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+    }
+    let axis = (0..3)
+        .max_by(|&a, &b| (hi[a] - lo[a]).total_cmp(&(hi[b] - lo[b])))
+        .unwrap_or(0);
+    let along = s.try_alloc_slice::<f32>(seeds.len(), 0.0).ok()?;
+    for (v, &sd) in along.iter_mut().zip(seeds) {
+        *v = at(sd)[axis];
+    }
+    along.sort_unstable_by(f32::total_cmp);
+    let mut bounds = [f32::INFINITY; MAX_SLABS];
+    for (i, b) in bounds[..slabs - 1].iter_mut().enumerate() {
+        *b = along
+            .get((i + 1) * along.len() / slabs)
+            .copied()
+            .unwrap_or(f32::INFINITY);
+    }
+    Some((axis, bounds))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::partition::{partition, Ctx, NONE};
+    use super::*;
+    use crate::arena::Arena;
+    use crate::clustering::knn::try_neighbours_in;
+    use crate::clustering::quadric::try_planes_in;
+    use crate::clustering::sweep::Start;
+    use crate::params::Params;
+    use crate::progress::{Flow, Silent, Stage};
+    use crate::rng::Rng;
+    use crate::sample::{fill, Shape};
+    use core::cell::Cell;
+    use core::mem::MaybeUninit;
+    use std::format;
+    use std::vec;
+    use std::vec::Vec;
+
+    /// Claims `.0` threads, runs the tasks last first, and counts the runs
+    /// of that many tasks (the slabs and their check).
+    struct Threads(usize, Cell<u32>);
+
+    impl Progress for Threads {
+        fn report(&mut self, _: Stage, _: u64, _: u64) -> Flow {
+            Flow::Continue
+        }
+
+        fn run(&self, tasks: &mut [&mut dyn Task]) {
+            if tasks.len() == self.0 {
+                self.1.set(self.1.get() + 1);
+            }
+            tasks.iter_mut().rev().for_each(|t| t.run());
+        }
+
+        fn threads(&self) -> usize {
+            self.0
+        }
+    }
+
+    /// Region growing in 2, 3 and 4 slabs gives the labels and the energy of
+    /// growing as one, fresh and warm: on a regular grid whose seeds sit on a lattice
+    /// (costs tie everywhere, so the order of offers decides) and on sampled
+    /// shapes from random seeds.
+    #[test]
+    fn slabs_grow_the_partition_of_growing_as_one() {
+        let grid: Vec<V3> = (0..130 * 130)
+            .map(|i| [(i % 130) as f32, (i / 130) as f32, 0.0])
+            .collect();
+        let lattice: Vec<u32> = (0..13)
+            .flat_map(|y| (0..13).map(move |x| (y * 10 + 5) * 130 + x * 10 + 5))
+            .collect();
+        let mut clouds = vec![(grid, lattice)];
+        for (shape, seed) in [
+            (Shape::Demo, 3),
+            (Shape::Torus, 4),
+            (Shape::Scene, 5),
+            (Shape::Box, 6),
+            (Shape::Wave, 7),
+        ] {
+            let mut points = vec![[0.0f32; 3]; 16_500];
+            fill(shape, seed, 0.002, &mut points);
+            let mut rng = Rng::new(seed);
+            // The scene's stray fragment (its last points) gets a seed too.
+            let mut seeds: Vec<u32> = vec![points.len() as u32 - 1];
+            while seeds.len() < 130 + 40 * (seed as usize % 3) {
+                let p = (rng.next_u64() % points.len() as u64) as u32;
+                if !seeds.contains(&p) {
+                    seeds.push(p);
+                }
+            }
+            clouds.push((points, seeds));
+        }
+        for (c, (points, seeds)) in clouds.iter().enumerate() {
+            let mut buf = vec![MaybeUninit::uninit(); 16 << 20];
+            let arena = Arena::new(&mut buf);
+            let nb = try_neighbours_in(&arena, points, Params::default().k, &mut Silent).unwrap();
+            let planes = try_planes_in(&arena, points, None, &nb, &mut Silent).unwrap();
+            let params = Params::default();
+            let ctx = Ctx::new(points, &nb, &planes, &params);
+            let generators: Vec<V3> = seeds.iter().map(|&s| points[s as usize]).collect();
+            // Warm: the last partition from generators moved a little.
+            let moved: Vec<V3> = generators
+                .iter()
+                .map(|g| [g[0] + 0.3, g[1] - 0.2, g[2]])
+                .collect();
+            let mut last = vec![NONE; points.len()];
+            arena
+                .scratch(|s| {
+                    partition(
+                        s,
+                        &ctx,
+                        &moved,
+                        seeds,
+                        &mut last,
+                        Start::Fresh,
+                        None,
+                        &Silent,
+                    )
+                })
+                .unwrap();
+            // Generators away from their seeds: costs above those of the
+            // seeds' neighbours, so offers come down long cascades.
+            let mut rotated = generators.clone();
+            rotated.rotate_left(1);
+            for (start, generators) in [
+                (Start::Fresh, &generators),
+                (Start::Warm, &generators),
+                (Start::Warm, &moved),
+                (Start::Fresh, &rotated),
+            ] {
+                let mut one = last.clone();
+                let e1 = arena
+                    .scratch(|s| {
+                        partition(s, &ctx, generators, seeds, &mut one, start, None, &Silent)
+                    })
+                    .unwrap();
+                assert!(
+                    one.iter().all(|&l| l != NONE),
+                    "cloud {c}: a point left out"
+                );
+                for threads in [2, 3, 4] {
+                    let mut two = last.clone();
+                    let hooks = Threads(threads, Cell::new(0));
+                    let e2 = arena
+                        .scratch(|s| {
+                            partition(s, &ctx, generators, seeds, &mut two, start, None, &hooks)
+                        })
+                        .unwrap();
+                    let at = format!("cloud {c}, {start:?}, {threads} slabs");
+                    assert_eq!(hooks.1.get(), 2, "{at}: the slabs did not run");
+                    let differ = one.iter().zip(&two).filter(|(a, b)| a != b).count();
+                    assert_eq!(differ, 0, "{at}: labels differ");
+                    assert_eq!(e1.to_bits(), e2.to_bits(), "{at}: energy");
+                }
+            }
+        }
+    }
+}
