@@ -1123,7 +1123,15 @@ pub(crate) fn partition(
     for l in labels.iter_mut() {
         *l &= !FINAL;
     }
-    Ok(f.best.iter().map(|&c| c as f64).sum())
+    // Summed by the ranges of parallel tasks, in order: the sum of region
+    // growing in slabs, bit for bit.
+    let best = &*f.best;
+    let sums = (0..parallel::TASKS).map(|t| {
+        let items = parallel::range(n, t);
+        best.get(items)
+            .map_or(0.0, |b| b.iter().fold(0.0, |a, &c| a + c as f64))
+    });
+    Ok(sums.fold(0.0, |a, b| a + b))
 }
 
 /// The growing front of a partition: labels (with the final bit), the tentative

@@ -38,22 +38,25 @@
 //!    their final neighbours'.
 //!
 //! The labels are the same as growing as one, bit for bit, whatever the
-//! threads. The partition's energy is summed in point order either way.
+//! threads. The partition's energy is summed over the ranges of
+//! [`parallel::TASKS`] tasks, in order, either way.
 //!
 //! Memory (scratch): 6 words a point (label, cost, last rival, offering
-//! point, level), a byte a point for its slab, the heaps' 8 + 4 bytes and the
-//! reset list's 4 a point, a word a seed. When the scratch has no room, or
+//! point, level), a byte a point for its slab and one for the repair's
+//! marks, the heaps' 8 + 4 bytes and the reset list's 4 a point, a word a
+//! seed. When the scratch has no room, or
 //! the caller runs one thread ([`Progress::threads`]), region growing runs as
 //! one. Cost: the slabs' growths at once, then O(k) per point the repair
 //! grows again (about 2 % of the points on the bunny).
 
 use super::partition::{key, Ctx, Heap, FINAL, GUESSES, NONE};
-use crate::arena::{atomic_u32s, Scratch};
+use crate::arena::{atomic_bytes, atomic_u32s, Scratch};
 use crate::math::V3;
+use crate::parallel;
 use crate::parallel::Task;
 use crate::progress::Progress;
-use core::sync::atomic::AtomicU32;
 use core::sync::atomic::Ordering::Relaxed;
+use core::sync::atomic::{AtomicU32, AtomicU8};
 
 /// Most slabs of a region growing (one a thread).
 const MAX_SLABS: usize = 8;
@@ -80,7 +83,7 @@ const NO_LEVEL: u64 = u64::MAX;
 /// Bytes of scratch [`grow_in_slabs`] takes for `n` points and `m` seeds
 /// (beside the guessed costs), with room for the alignment of each slice.
 fn slabs_bytes(n: usize, m: usize) -> usize {
-    n.saturating_mul(WORDS * 4 + 1 + 8 + 4 + 4)
+    n.saturating_mul(WORDS * 4 + 2 + 8 + 4 + 4)
         .saturating_add(m.saturating_mul(4))
         .saturating_add(6 * 64)
 }
@@ -315,19 +318,38 @@ fn offer_within(shared: &Shared, heap: &mut Heap, part: &[u8], slab: u8, q: usiz
 
 /// One slab's check across the cuts, a task of its own: mark [`DIRTY`] its
 /// final points to which a final neighbour in another slab offers a lesser
-/// triple than the one they hold.
+/// triple than the one they hold, and in `marks` those and its points no
+/// seed reached.
 struct Check<'a, 'p, 'x> {
     shared: &'a Shared<'a, 'p, 'x>,
     part: &'a [u8],
+    marks: &'a [AtomicU8],
     slab: u8,
 }
 
 impl Task for Check<'_, '_, '_> {
     fn run(&mut self) {
-        let Check { shared, part, slab } = *self;
+        let Check {
+            shared,
+            part,
+            marks,
+            slab,
+        } = *self;
         let slots = shared.slots;
+        let mark = |q: usize| {
+            if let Some(m) = marks.get(q) {
+                m.store(1, Relaxed);
+            }
+        };
         for (q, &h) in part.iter().enumerate() {
-            if h != slab || slots.get(q, TRIED, NONE) != CUT || slots.level(q) == 0 {
+            if h != slab {
+                continue;
+            }
+            if slots.label(q) & FINAL == 0 {
+                mark(q);
+                continue;
+            }
+            if slots.get(q, TRIED, NONE) != CUT || slots.level(q) == 0 {
                 continue;
             }
             let held = slots.standing(q);
@@ -341,6 +363,7 @@ impl Task for Check<'_, '_, '_> {
                 }
                 if shared.offer(r, q).0 < held {
                     slots.set(q, TRIED, DIRTY);
+                    mark(q);
                     break;
                 }
             }
@@ -579,9 +602,9 @@ impl Repair<'_, '_, '_, '_> {
 /// Region growing over `labels.len()` points from `seeds` (their clusters'
 /// generators `generators`, costs `guess` computed ahead, possibly empty) in
 /// slabs at once, one a thread of `hooks`, then repaired (module docs): the
-/// labels of growing as one, and the energy (the points' costs summed in point
-/// order). `None` when `hooks` has one thread, the slabs would be too small,
-/// or the scratch has no room (`labels` untouched).
+/// labels of growing as one, and the energy (the points' costs summed by the
+/// tasks' ranges, in order). `None` when `hooks` has one thread, the slabs
+/// would be too small, or the scratch has no room (`labels` untouched).
 pub(crate) fn grow_in_slabs(
     s: &Scratch,
     ctx: &Ctx,
@@ -601,29 +624,41 @@ pub(crate) fn grow_in_slabs(
         return None;
     }
     let bounds = cuts(s, ctx, seeds, slabs)?;
-    let words = s.try_alloc_slice::<u32>(n * WORDS, 0).ok()?;
-    for w in words.chunks_exact_mut(WORDS) {
-        w.copy_from_slice(&[
-            NONE,
-            f32::INFINITY.to_bits(),
-            NONE,
-            NONE,
-            u32::MAX,
-            u32::MAX,
-        ]);
-    }
+    let open = [
+        NONE,
+        f32::INFINITY.to_bits(),
+        NONE,
+        NONE,
+        u32::MAX,
+        u32::MAX,
+    ];
+    let words = s.try_alloc_slice::<[u32; WORDS]>(n, open).ok()?;
     let part = s.try_alloc_slice::<u8>(n, 0).ok()?;
+    let marks = s.try_alloc_slice::<u8>(n, 0).ok()?;
     let levels = s.try_alloc_slice::<u64>(n, 0).ok()?;
     let points = s.try_alloc_slice::<u32>(n, 0).ok()?;
     let list = s.try_alloc_slice::<u32>(n, 0).ok()?;
-    let slots = Slots(atomic_u32s(words));
+    let slots = Slots(atomic_u32s(words.as_flattened_mut()));
+    let marks = atomic_bytes(marks);
     let (axis, bounds) = bounds;
+    let bounds = &bounds[..slabs - 1];
+    let counts = parallel::rows(hooks, part, 1, |points, part: &mut [u8]| {
+        let mut count = [0usize; MAX_SLABS];
+        for (h, p) in part.iter_mut().zip(points) {
+            let x = ctx.points.get(p).map_or(0.0, |q| q[axis]);
+            let slab = bounds.iter().filter(|&&b| x > b).count();
+            *h = slab as u8;
+            count[slab] += 1;
+        }
+        count
+    });
     let mut count = [0usize; MAX_SLABS];
-    for (h, p) in part.iter_mut().zip(ctx.points) {
-        let slab = bounds[..slabs - 1].iter().filter(|&&b| p[axis] > b).count();
-        *h = slab as u8;
-        count[slab] += 1;
+    for c in &counts {
+        for (a, b) in count.iter_mut().zip(c) {
+            *a += b;
+        }
     }
+    let part = &*part;
     let shared = Shared {
         ctx,
         generators,
@@ -651,6 +686,7 @@ pub(crate) fn grow_in_slabs(
         let mut jobs: [Check; MAX_SLABS] = core::array::from_fn(|i| Check {
             shared: &shared,
             part,
+            marks,
             slab: i as u8,
         });
         let mut tasks = jobs.each_mut().map(|j| j as &mut dyn Task);
@@ -664,7 +700,10 @@ pub(crate) fn grow_in_slabs(
         list,
         listed: 0,
     };
-    for p in 0..n {
+    for (p, m) in marks.iter().enumerate() {
+        if m.load(Relaxed) == 0 {
+            continue;
+        }
         let label = slots.label(p);
         let fine = if label & FINAL == 0 {
             repair.gather(p)
@@ -680,12 +719,15 @@ pub(crate) fn grow_in_slabs(
     if !repair.run() {
         return None;
     }
-    let mut energy = 0.0f64;
-    for (p, l) in labels.iter_mut().enumerate() {
-        *l = slots.label(p) & !FINAL;
-        energy += slots.best(p) as f64;
-    }
-    Some(energy)
+    let energy = parallel::rows(hooks, labels, 1, |points, labels: &mut [u32]| {
+        let mut sum = 0.0f64;
+        for (p, l) in points.zip(labels) {
+            *l = slots.label(p) & !FINAL;
+            sum += slots.best(p) as f64;
+        }
+        sum
+    });
+    Some(energy.iter().fold(0.0, |a, b| a + b))
 }
 
 /// The axis of the longest side of the seeds' box and the `slabs - 1`
