@@ -1027,6 +1027,14 @@ pub(super) fn key(cost: f32, point: u32) -> u64 {
 /// Clusters of each point costed ahead of region growing, [`GUESSES`] a point.
 pub(super) const GUESSES: usize = 2;
 
+/// Point `p`'s cost to cluster `label` when it was computed ahead (`guess`,
+/// [`GUESSES`] `(cluster, cost)` a point, empty when cold).
+#[inline]
+pub(super) fn guessed(guess: &[(u32, f32)], p: usize, label: u32) -> Option<f32> {
+    let row = guess.get(p * GUESSES..(p + 1) * GUESSES)?;
+    row.iter().find(|&&(l, _)| l == label).map(|&(_, e)| e)
+}
+
 /// Region growing from `seeds` (seed Eq. 4). Returns the total energy.
 ///
 /// With `start` [`Start::Warm`], `labels` holds the last partition, and the
@@ -1164,13 +1172,7 @@ fn grow_from(ctx: &Ctx, generators: &[V3], f: &mut Front, q: usize) {
             continue;
         }
         f.tried[nbr as usize] = label;
-        let guessed = f
-            .guess
-            .get(nbr as usize * GUESSES..(nbr as usize + 1) * GUESSES);
-        let e = match guessed.and_then(|g| g.iter().find(|&&(l, _)| l == label)) {
-            Some(&(_, e)) => e,
-            None => ctx.cost(nbr as usize, c),
-        };
+        let e = guessed(f.guess, nbr as usize, label).unwrap_or_else(|| ctx.cost(nbr as usize, c));
         if t == NONE || e < f.best[nbr as usize] {
             f.labels[nbr as usize] = label;
             f.best[nbr as usize] = e;

@@ -49,7 +49,7 @@
 //! one. Cost: the slabs' growths at once, then O(k) per point the repair
 //! grows again (about 2 % of the points on the bunny).
 
-use super::partition::{key, Ctx, Heap, FINAL, GUESSES, NONE};
+use super::partition::{guessed, key, Ctx, Heap, FINAL, GUESSES, NONE};
 use crate::arena::{atomic_bytes, atomic_u32s, Scratch};
 use crate::math::V3;
 use crate::parallel;
@@ -181,14 +181,10 @@ impl Shared<'_, '_, '_> {
         if self.slots.label(p) & !FINAL == label {
             return self.slots.best(p);
         }
-        let guessed = self.guess.get(p * GUESSES..(p + 1) * GUESSES);
-        match guessed.and_then(|g| g.iter().find(|&&(l, _)| l == label)) {
-            Some(&(_, e)) => e,
-            None => match self.generators.get(label as usize) {
-                Some(&c) => self.ctx.cost(p, c),
-                None => f32::INFINITY,
-            },
-        }
+        guessed(self.guess, p, label).unwrap_or_else(|| match self.generators.get(label as usize) {
+            Some(&c) => self.ctx.cost(p, c),
+            None => f32::INFINITY,
+        })
     }
 
     /// The offer of final point `r` to `q` (see the module docs) and its cost.
@@ -290,11 +286,7 @@ fn offer_within(shared: &Shared, heap: &mut Heap, part: &[u8], slab: u8, q: usiz
             continue;
         }
         slots.set(p, TRIED, label);
-        let guessed = guess.get(p * GUESSES..(p + 1) * GUESSES);
-        let e = match guessed.and_then(|g| g.iter().find(|&&(l, _)| l == label)) {
-            Some(&(_, e)) => e,
-            None => ctx.cost(p, c),
-        };
+        let e = guessed(guess, p, label).unwrap_or_else(|| ctx.cost(p, c));
         if t == NONE || e < slots.best(p) {
             // The level is set when it pops.
             slots.set(p, LABEL, label);
