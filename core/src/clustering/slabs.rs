@@ -20,7 +20,7 @@
 //!   offers from a seed: the least such assignment, which the growth reaches.
 //!
 //! Here the points are cut into one slab a thread ([`MAX_SLABS`] at most)
-//! across the longest axis of the seeds' box, at quantiles of the seeds. Each
+//! across the longest axis of the seeds' box, at quantiles of the points. Each
 //! slab grows from its own seeds over its own points on its own thread,
 //! recording each point's level and the point whose offer it holds. Then a
 //! repair on the calling thread makes the union what growing as one gives:
@@ -44,7 +44,7 @@
 //! Memory (scratch): 6 words a point (label, cost, last rival, offering
 //! point, level), a byte a point for its slab and one for the repair's
 //! marks, the heaps' 8 + 4 bytes and the reset list's 4 a point, a word a
-//! seed. When the scratch has no room, or
+//! point sampled for the cuts (at most [`CUT_SAMPLE`]). When the scratch has no room, or
 //! the caller runs one thread ([`Progress::threads`]), region growing runs as
 //! one. Cost: the slabs' growths at once, then O(k) per point the repair
 //! grows again (about 2 % of the points on the bunny).
@@ -64,6 +64,8 @@ const MAX_SLABS: usize = 8;
 const MIN_SLAB_POINTS: usize = 4096;
 /// Fewest clusters a slab.
 const MIN_SLAB_CLUSTERS: usize = 32;
+/// Most points sampled to place the cuts.
+const CUT_SAMPLE: usize = 4096;
 
 /// Words of a point's slot.
 const WORDS: usize = 6;
@@ -80,11 +82,11 @@ const DIRTY: u32 = FINAL | 1;
 /// The level of a point holding no offer.
 const NO_LEVEL: u64 = u64::MAX;
 
-/// Bytes of scratch [`grow_in_slabs`] takes for `n` points and `m` seeds
-/// (beside the guessed costs), with room for the alignment of each slice.
-fn slabs_bytes(n: usize, m: usize) -> usize {
+/// Bytes of scratch [`grow_in_slabs`] takes for `n` points (beside the
+/// guessed costs), with room for the alignment of each slice.
+fn slabs_bytes(n: usize) -> usize {
     n.saturating_mul(WORDS * 4 + 2 + 8 + 4 + 4)
-        .saturating_add(m.saturating_mul(4))
+        .saturating_add(n.min(CUT_SAMPLE).saturating_mul(4))
         .saturating_add(6 * 64)
 }
 
@@ -612,7 +614,7 @@ pub(crate) fn grow_in_slabs(
         .min(MAX_SLABS)
         .min(n / MIN_SLAB_POINTS)
         .min(seeds.len() / MIN_SLAB_CLUSTERS);
-    if slabs < 2 || s.available() < slabs_bytes(n, seeds.len()) || u32::try_from(n).is_err() {
+    if slabs < 2 || s.available() < slabs_bytes(n) || u32::try_from(n).is_err() {
         return None;
     }
     let bounds = cuts(s, ctx, seeds, slabs)?;
@@ -723,14 +725,15 @@ pub(crate) fn grow_in_slabs(
 }
 
 /// The axis of the longest side of the seeds' box and the `slabs - 1`
-/// coordinates along it that cut the seeds into slabs of equal counts (the
-/// seeds' coordinates sorted in scratch).
+/// coordinates along it that cut the points into slabs of about equal counts
+/// (quantiles of an even sample of at most [`CUT_SAMPLE`] points, sorted in
+/// scratch): a slab's growth costs in proportion to its points.
 fn cuts(s: &Scratch, ctx: &Ctx, seeds: &[u32], slabs: usize) -> Option<(usize, [f32; MAX_SLABS])> {
-    let at = |sd: u32| ctx.points.get(sd as usize).copied().unwrap_or([0.0; 3]);
+    let at = |p: usize| ctx.points.get(p).copied().unwrap_or([0.0; 3]);
     let mut lo = [f32::INFINITY; 3];
     let mut hi = [f32::NEG_INFINITY; 3];
     for &sd in seeds {
-        let p = at(sd);
+        let p = at(sd as usize);
         for a in 0..3 {
             lo[a] = lo[a].min(p[a]);
             hi[a] = hi[a].max(p[a]);
@@ -739,9 +742,11 @@ fn cuts(s: &Scratch, ctx: &Ctx, seeds: &[u32], slabs: usize) -> Option<(usize, [
     let axis = (0..3)
         .max_by(|&a, &b| (hi[a] - lo[a]).total_cmp(&(hi[b] - lo[b])))
         .unwrap_or(0);
-    let along = s.try_alloc_slice::<f32>(seeds.len(), 0.0).ok()?;
-    for (v, &sd) in along.iter_mut().zip(seeds) {
-        *v = at(sd)[axis];
+    let n = ctx.points.len();
+    let m = n.min(CUT_SAMPLE);
+    let along = s.try_alloc_slice::<f32>(m, 0.0).ok()?;
+    for (i, v) in along.iter_mut().enumerate() {
+        *v = at(i * n / m)[axis];
     }
     along.sort_unstable_by(f32::total_cmp);
     let mut bounds = [f32::INFINITY; MAX_SLABS];
