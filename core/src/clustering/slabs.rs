@@ -44,10 +44,10 @@
 //! Memory (scratch): 6 words a point (label, cost, last rival, offering
 //! point, level), a byte a point for its slab and one for the repair's
 //! marks, the heaps' 8 + 4 bytes and the reset list's 4 a point, a word a
-//! point sampled for the cuts (at most [`CUT_SAMPLE`]). When the scratch has no room, or
-//! the caller runs one thread ([`Progress::threads`]), region growing runs as
-//! one. Cost: the slabs' growths at once, then O(k) per point the repair
-//! grows again (about 2 % of the points on the bunny).
+//! point sampled for the cuts (at most [`CUT_SAMPLE`]). When the scratch has
+//! no room, or the caller runs one thread ([`Progress::threads`]), region
+//! growing runs as one. Cost: the slabs' growths at once, then O(k) per
+//! point the repair grows again (about 2 % of the points on the bunny).
 
 use super::partition::{guessed, key, Ctx, Heap, FINAL, GUESSES, NONE};
 use crate::arena::{atomic_bytes, atomic_u32s, Scratch};
@@ -746,7 +746,8 @@ fn cuts(s: &Scratch, ctx: &Ctx, seeds: &[u32], slabs: usize) -> Option<(usize, [
     let m = n.min(CUT_SAMPLE);
     let along = s.try_alloc_slice::<f32>(m, 0.0).ok()?;
     for (i, v) in along.iter_mut().enumerate() {
-        *v = at(i * n / m)[axis];
+        // In u64: `i * n` overflows a 32-bit usize past a million points.
+        *v = at((i as u64 * n as u64 / m as u64) as usize)[axis];
     }
     along.sort_unstable_by(f32::total_cmp);
     let mut bounds = [f32::INFINITY; MAX_SLABS];
