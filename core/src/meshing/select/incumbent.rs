@@ -4,11 +4,12 @@
 //! dive is at most F propagations; rounding and piece dropping O(incidences of
 //! the problem); a neighbourhood search at most its share of the node budget.
 
-use super::search::{Budget, Stack};
+use super::search::{Budget, Stack, NODES_PER_REPORT};
 use super::solver::{Solver, ON, UNDECIDED};
 use crate::arena::Alloc;
-use crate::error::Result;
-use crate::progress::Progress;
+use crate::error::{Error, Result};
+use crate::parallel::Task;
+use crate::progress::{Progress, Silent};
 
 /// Facets in one neighbourhood of the large-neighbourhood search, at first; a pass
 /// without gain doubles it, up to [`MAX_NEIGHBOURHOOD_SIZE`].
@@ -51,6 +52,135 @@ impl<'a> Neighbourhood<'a> {
     pub(super) fn arrays(&mut self) -> (&mut [u32], &mut [u32]) {
         (self.facets, self.edges)
     }
+}
+
+/// A second solver ([`Solver::try_lane_in`]) with its own search stack and
+/// ball, on which the neighbourhood search searches a ball while the main
+/// solver searches another.
+pub(super) struct Lane<'a> {
+    /// The lane's solver.
+    solver: Solver<'a>,
+    /// Its search stack.
+    stack: Stack<'a>,
+    /// Its ball.
+    ball: Neighbourhood<'a>,
+    /// Facets in `ball`.
+    ball_facets: usize,
+    /// Edges in `ball`.
+    ball_edges: usize,
+}
+
+impl<'a> Lane<'a> {
+    /// A lane beside `main`, in `scratch` ([`Lane::bytes`] of it).
+    pub(super) fn try_new_in<'b, A: Alloc<'b>>(
+        scratch: &'a A,
+        main: &Solver<'a>,
+        facets: usize,
+        edges: usize,
+    ) -> Result<Self> {
+        Ok(Lane {
+            solver: main.try_lane_in(scratch)?,
+            stack: Stack::try_new_in(scratch, facets)?,
+            ball: Neighbourhood::try_new_in(scratch, facets, edges)?,
+            ball_facets: 0,
+            ball_edges: 0,
+        })
+    }
+
+    /// Arena bytes of a lane for `facets` facets, `edges` constraints and
+    /// `incidences` incidences.
+    pub(super) fn bytes(facets: usize, edges: usize, incidences: usize) -> usize {
+        use crate::arena::padded_bytes as b;
+        let stack = b::<u32>(facets) + b::<u32>(facets) + b::<u8>(facets) + b::<f64>(facets);
+        let ball = b::<u32>(facets) + b::<u32>(edges);
+        Solver::lane_bytes(facets, edges, incidences)
+            .saturating_add(stack)
+            .saturating_add(ball)
+    }
+}
+
+/// One ball's search as a parallel task ([`Solver::search_ball`] with a
+/// budget of its own that reports nowhere).
+struct BallTask<'t, 's, 'k> {
+    solver: &'t mut Solver<'s>,
+    ball: (&'t [u32], &'t [u32]),
+    ball_size: usize,
+    stack: &'t mut Stack<'k>,
+    tolerance: f64,
+    /// The budget's nodes left and used before the search.
+    nodes: (u64, u64),
+    /// The search's result.
+    out: Result<(f64, f64)>,
+    /// Nodes it used.
+    used: u64,
+}
+
+impl<'t, 's, 'k> BallTask<'t, 's, 'k> {
+    fn new(
+        solver: &'t mut Solver<'s>,
+        ball: (&'t [u32], &'t [u32]),
+        ball_size: usize,
+        stack: &'t mut Stack<'k>,
+        tolerance: f64,
+        nodes: (u64, u64),
+    ) -> Self {
+        BallTask {
+            solver,
+            ball,
+            ball_size,
+            stack,
+            tolerance,
+            nodes,
+            out: Ok((0.0, 0.0)),
+            used: 0,
+        }
+    }
+}
+
+impl Task for BallTask<'_, '_, '_> {
+    fn run(&mut self) {
+        let mut silent = Silent;
+        let mut budget = Budget {
+            nodes_left: self.nodes.0,
+            nodes_used: self.nodes.1,
+            progress: &mut silent,
+            done: 0,
+            total: 0,
+        };
+        self.out = self.solver.search_ball(
+            self.ball,
+            self.ball_size,
+            self.stack,
+            self.tolerance,
+            &mut budget,
+        );
+        self.used = self.nodes.0 - budget.nodes_left;
+    }
+}
+
+/// Tests' counts of the lane's ways, summed over every run: pairs kept,
+/// second balls searched again in turn, next balls that shared an edge.
+#[cfg(test)]
+pub(super) static LANE_COUNTS: [core::sync::atomic::AtomicU32; 3] =
+    [const { core::sync::atomic::AtomicU32::new(0) }; 3];
+
+/// Count way `i` of [`LANE_COUNTS`] (nothing outside tests).
+fn count_lane(_i: usize) {
+    #[cfg(test)]
+    LANE_COUNTS[_i].fetch_add(1, core::sync::atomic::Ordering::Relaxed);
+}
+
+/// Whether two ascending lists have no entry in common.
+fn disjoint(a: &[u32], b: &[u32]) -> bool {
+    let (mut i, mut j) = (0, 0);
+    while i < a.len() && j < b.len() {
+        match a[i].cmp(&b[j]) {
+            core::cmp::Ordering::Less => i += 1,
+            core::cmp::Ordering::Greater => j += 1,
+            core::cmp::Ordering::Equal => return false,
+        }
+    }
+    true
 }
 
 impl Solver<'_> {
@@ -288,6 +418,10 @@ impl Solver<'_> {
     /// the ball exactly (node-limited). A pass without gain doubles the ball size.
     /// Any result is feasible: the ball's edges see the fixed border, and the rest
     /// is unchanged.
+    ///
+    /// With a `lane` (see [`Lane`]), two consecutive balls that share no edge are
+    /// searched at once, the second on the lane, in parallel tasks of `budget`'s
+    /// progress; the result is that of searching them in turn.
     #[allow(clippy::too_many_arguments)]
     pub(super) fn neighbourhood_search(
         &mut self,
@@ -295,6 +429,7 @@ impl Solver<'_> {
         edges: &[u32],
         stack: &mut Stack<'_>,
         ball: &mut Neighbourhood<'_>,
+        mut lane: Option<&mut Lane<'_>>,
         incumbent_value: &mut f64,
         tolerance: f64,
         budget: &mut Budget<'_>,
@@ -314,70 +449,52 @@ impl Solver<'_> {
                 self.neighbourhood_flags[f] = if agree { 0 } else { FLAG_SEED };
             }
             self.close_problem(facets, edges);
+            if let Some(lane) = lane.as_deref_mut() {
+                lane.solver.copy_state_from(self);
+            }
             let value_before = *incumbent_value;
-            for &seed in facets {
+            let mut i = 0;
+            while i < facets.len() {
                 if budget.nodes_left == 0 {
                     return Ok(());
                 }
+                let seed = facets[i];
+                i += 1;
                 if self.neighbourhood_flags[seed as usize] & FLAG_SEED == 0 {
                     continue;
                 }
                 let (ball_facets, ball_edges) = self.grow_ball(seed, ball_size, ball);
-                // Fix the border to the incumbent; value the incumbent on the ball.
-                let mark = self.trail_len;
-                let mut incumbent_on_ball = 0.0f64;
-                for i in 0..ball_facets {
-                    let f = ball.facets[i] as usize;
-                    self.neighbourhood_flags[f] &= !FLAG_SEED;
-                    if self.incumbent[f] {
-                        incumbent_on_ball += self.scores[f] as f64;
+                let first = (&ball.facets[..ball_facets], &ball.edges[..ball_edges]);
+                let pair = match lane.as_deref_mut() {
+                    Some(lane) if budget.nodes_left >= 2 => {
+                        self.second_ball(facets, i, first, ball_size, lane)
                     }
-                }
-                for i in 0..ball_edges {
-                    let e = ball.edges[i] as usize;
-                    let mut degree = 0;
-                    for k in self.edge_span(e) {
-                        let g = self.facet_of(self.edge_incidences[k]);
-                        degree += self.incumbent[g] as u32;
-                        if self.facet_state[g] == UNDECIDED
-                            && self.neighbourhood_flags[g] & FLAG_IN_BALL == 0
-                        {
-                            self.assign(g, self.incumbent[g]);
-                        }
+                    _ => None,
+                };
+                if let Some((j, lane)) = pair.zip(lane.as_deref_mut()) {
+                    let ball = (first, lane);
+                    if self.search_two(
+                        ball,
+                        ball_size,
+                        stack,
+                        tolerance,
+                        budget,
+                        incumbent_value,
+                    )? {
+                        i = j + 1;
                     }
-                    if degree == 1 {
-                        incumbent_on_ball -= self.edge_penalty(e);
-                    }
+                    continue;
                 }
-                self.edge_queue.clear();
-                for i in 0..ball_edges {
-                    self.edge_queue.push(ball.edges[i] as usize);
+                for &f in first.0 {
+                    self.neighbourhood_flags[f as usize] |= FLAG_IN_BALL;
                 }
-                let mut ball_value = incumbent_on_ball;
-                let ball_nodes = budget
-                    .nodes_left
-                    .min(NODES_PER_NEIGHBOURHOOD_FACET * ball_size as u64);
-                let nodes_kept = budget.nodes_left - ball_nodes;
-                budget.nodes_left = ball_nodes;
-                self.rounding_enabled = false;
-                let result = self.search(
-                    &ball.facets[..ball_facets],
-                    &ball.edges[..ball_edges],
-                    stack,
-                    &mut ball_value,
-                    tolerance,
-                    f64::INFINITY,
-                    budget,
-                );
-                self.rounding_enabled = true;
-                budget.nodes_left += nodes_kept;
-                self.undo_to(mark);
-                for i in 0..ball_facets {
-                    self.neighbourhood_flags[ball.facets[i] as usize] &= !FLAG_IN_BALL;
+                let (value, before) =
+                    self.search_ball(first, ball_size, stack, tolerance, budget)?;
+                if value > before + tolerance {
+                    *incumbent_value += value - before;
                 }
-                result?;
-                if ball_value > incumbent_on_ball + tolerance {
-                    *incumbent_value += ball_value - incumbent_on_ball;
+                if let Some(lane) = lane.as_deref_mut() {
+                    lane.solver.copy_ball_from(self, first.0);
                 }
             }
             if *incumbent_value <= value_before + tolerance {
@@ -388,6 +505,179 @@ impl Solver<'_> {
             }
         }
         Ok(())
+    }
+
+    /// Search ball `first` here and the lane's ball on the lane at once, in
+    /// parallel tasks of `budget`'s progress, the second given the nodes it
+    /// would have in turn if the first used one. Keeps the second's result
+    /// (returns `true`) when the first did use one; else it is to be searched
+    /// again in turn. Either way both solvers end with the same shares and
+    /// incumbent. Never inlined: its tasks' frames stay off the stack of the
+    /// one-thread search (the firmware's).
+    #[inline(never)]
+    fn search_two(
+        &mut self,
+        (first, lane): ((&[u32], &[u32]), &mut Lane<'_>),
+        ball_size: usize,
+        stack: &mut Stack<'_>,
+        tolerance: f64,
+        budget: &mut Budget<'_>,
+        incumbent_value: &mut f64,
+    ) -> Result<bool> {
+        let second = (
+            &lane.ball.facets[..lane.ball_facets],
+            &lane.ball.edges[..lane.ball_edges],
+        );
+        for &f in first.0 {
+            self.neighbourhood_flags[f as usize] |= FLAG_IN_BALL;
+        }
+        for &f in second.0 {
+            lane.solver.neighbourhood_flags[f as usize] |= FLAG_IN_BALL;
+        }
+        let (left, used) = (budget.nodes_left, budget.nodes_used);
+        let mut here = BallTask::new(self, first, ball_size, stack, tolerance, (left, used));
+        let mut there = BallTask::new(
+            &mut lane.solver,
+            second,
+            ball_size,
+            &mut lane.stack,
+            tolerance,
+            (left - 1, used + 1),
+        );
+        budget.progress.run(&mut [&mut here, &mut there]);
+        let (first_out, first_used) = (here.out, here.used);
+        let (second_out, second_used) = (there.out, there.used);
+        let (value, before) = first_out?;
+        let (second_value, second_before) = second_out?;
+        budget.nodes_left -= first_used;
+        budget.nodes_used += first_used;
+        if value > before + tolerance {
+            *incumbent_value += value - before;
+        }
+        lane.solver.copy_ball_from(self, first.0);
+        let kept = first_used == 1;
+        if kept {
+            count_lane(0);
+            for &f in second.0 {
+                self.neighbourhood_flags[f as usize] &= !FLAG_SEED;
+            }
+            self.copy_ball_from(&lane.solver, second.0);
+            budget.nodes_left -= second_used;
+            budget.nodes_used += second_used;
+            if second_value > second_before + tolerance {
+                *incumbent_value += second_value - second_before;
+            }
+        } else {
+            // The lane's copy of the second ball is overwritten after its
+            // search in turn.
+            count_lane(1);
+        }
+        if budget.nodes_used / NODES_PER_REPORT != used / NODES_PER_REPORT && !budget.report() {
+            return Err(Error::Cancelled);
+        }
+        Ok(kept)
+    }
+
+    /// The ball to search beside `first` (just grown from the seed before
+    /// `facets[from]`): the next seed's, grown into the lane's ball, when it
+    /// shares no edge with `first` (so neither search reads what the other
+    /// writes, nor its border). Returns the seed's position in `facets`. The
+    /// first ball's seed flags are cleared on the way, as searching it clears
+    /// them; the second's are left.
+    fn second_ball(
+        &mut self,
+        facets: &[u32],
+        from: usize,
+        first: (&[u32], &[u32]),
+        ball_size: usize,
+        lane: &mut Lane<'_>,
+    ) -> Option<usize> {
+        for &f in first.0 {
+            self.neighbourhood_flags[f as usize] &= !(FLAG_SEED | FLAG_IN_BALL);
+        }
+        let j = from
+            + facets[from..]
+                .iter()
+                .position(|&f| self.neighbourhood_flags[f as usize] & FLAG_SEED != 0)?;
+        let (n_facets, n_edges) = self.grow_ball(facets[j], ball_size, &mut lane.ball);
+        for &f in &lane.ball.facets[..n_facets] {
+            self.neighbourhood_flags[f as usize] &= !FLAG_IN_BALL;
+        }
+        (lane.ball_facets, lane.ball_edges) = (n_facets, n_edges);
+        let apart = disjoint(first.1, &lane.ball.edges[..n_edges]);
+        if !apart {
+            count_lane(2);
+        }
+        apart.then_some(j)
+    }
+
+    /// Search one ball (`ball`: its facets, flagged [`FLAG_IN_BALL`], and its
+    /// edges) with its border fixed to the incumbent and at most its share of
+    /// `budget`'s nodes; clears the ball's flags and restores the state.
+    /// Returns the best value found on the ball and the incumbent's value there.
+    fn search_ball(
+        &mut self,
+        ball: (&[u32], &[u32]),
+        ball_size: usize,
+        stack: &mut Stack<'_>,
+        tolerance: f64,
+        budget: &mut Budget<'_>,
+    ) -> Result<(f64, f64)> {
+        let (ball_facets, ball_edges) = ball;
+        // Fix the border to the incumbent; value the incumbent on the ball.
+        let mark = self.trail_len;
+        let mut incumbent_on_ball = 0.0f64;
+        for &f in ball_facets {
+            let f = f as usize;
+            self.neighbourhood_flags[f] &= !FLAG_SEED;
+            if self.incumbent[f] {
+                incumbent_on_ball += self.scores[f] as f64;
+            }
+        }
+        for &e in ball_edges {
+            let e = e as usize;
+            let mut degree = 0;
+            for k in self.edge_span(e) {
+                let g = self.facet_of(self.edge_incidences[k]);
+                degree += self.incumbent[g] as u32;
+                if self.facet_state[g] == UNDECIDED
+                    && self.neighbourhood_flags[g] & FLAG_IN_BALL == 0
+                {
+                    self.assign(g, self.incumbent[g]);
+                }
+            }
+            if degree == 1 {
+                incumbent_on_ball -= self.edge_penalty(e);
+            }
+        }
+        self.edge_queue.clear();
+        for &e in ball_edges {
+            self.edge_queue.push(e as usize);
+        }
+        let mut ball_value = incumbent_on_ball;
+        let ball_nodes = budget
+            .nodes_left
+            .min(NODES_PER_NEIGHBOURHOOD_FACET * ball_size as u64);
+        let nodes_kept = budget.nodes_left - ball_nodes;
+        budget.nodes_left = ball_nodes;
+        self.rounding_enabled = false;
+        let result = self.search(
+            ball_facets,
+            ball_edges,
+            stack,
+            &mut ball_value,
+            tolerance,
+            f64::INFINITY,
+            budget,
+        );
+        self.rounding_enabled = true;
+        budget.nodes_left += nodes_kept;
+        self.undo_to(mark);
+        for &f in ball_facets {
+            self.neighbourhood_flags[f as usize] &= !FLAG_IN_BALL;
+        }
+        result?;
+        Ok((ball_value, incumbent_on_ball))
     }
 
     /// Fill `ball` breadth-first from `seed` over shared edges with up to `size`

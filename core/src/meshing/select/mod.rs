@@ -70,6 +70,13 @@
 //!    always feasible); dropping connected pieces worth less than nothing; then a
 //!    large-neighbourhood search: around facets where the bound disagrees with the
 //!    incumbent, re-solve a ball of 32 to 256 facets exactly with the rest fixed.
+//!    A ball's search reads and writes only what hangs on its edges (and leaves
+//!    only its facets' shares and incumbent changed), so when the caller has two
+//!    threads, the next ball is grown at once and, if it shares no edge with
+//!    this one, searched beside it on a *lane* (a second solver over the same
+//!    incidence, its own copy of the state), given the nodes it would have in
+//!    turn if the first used one; it is searched again in turn when the first
+//!    used more. The result is that of searching them one after the other.
 //! 6. *Search* (`search.rs`): depth-first, on an explicit stack (no recursion, any
 //!    depth). Strong branching: the six most contested facets (both forced values
 //!    lose the most by the cached estimates) have both children bounded
@@ -90,7 +97,10 @@
 //! ## Cost
 //! Memory: [`select_bytes_for`], about `65 F + 40 I + 100 E` bytes for `I` used
 //! constraint slots (3 F to 6 F; [`select_bytes`] assumes 6 F), all from the arena,
-//! of which only the `F`-byte result is persistent. Time: O(F + E) for the checks,
+//! of which only the `F`-byte result is persistent; on two threads or more, a
+//! lane (`incumbent::Lane`, about `41 F + 24 I + 92 E` bytes more) when
+//! the arena has room at the time (never counted in these bounds, and without
+//! it the search runs ball after ball, to the same result). Time: O(F + E) for the checks,
 //! incidence, propagation and components; O(I) per root sweep (30 per component);
 //! per search node, O(facets + edges of its component) plus the re-splits around
 //! what changed (at most 512), and the same again for each of its 12 probed
@@ -109,10 +119,14 @@ mod tests;
 use crate::arena::Alloc;
 use crate::error::{Error, Result};
 use crate::progress::{Flow, Progress, Stage};
-use incumbent::Neighbourhood;
+use incumbent::{Lane, Neighbourhood};
 use propagate::{ComponentSpan, Components};
 use search::{Budget, Stack};
 use solver::Solver;
+
+/// Facets a selection needs for its neighbourhood search to run two balls
+/// at once on two threads (a lane costs about `41 F + 24 I + 92 E` bytes).
+const MIN_LANE_FACETS: usize = 256;
 
 /// Edge mask "degree 0 or 2": a closed 2-manifold edge (seed Eq. 8).
 pub const MASK_CLOSED: u8 = 0b101;
@@ -433,6 +447,17 @@ pub fn try_select_with_in<'a, 'b, A: Alloc<'b>>(
         let mut ball = Neighbourhood::try_new_in(scratch, facet_count, edge_count)?;
         let mut components = Components::try_new_in(scratch, facet_count, edge_count)?;
         let mut stack = Stack::try_new_in(scratch, facet_count)?;
+        // A lane for the neighbourhood search when two balls can run at once
+        // and the arena has room (never counted in `bytes_needed`).
+        let incidences = solver.shares.len();
+        let mut lane = if progress.threads() >= 2
+            && facet_count >= MIN_LANE_FACETS
+            && scratch.available() >= Lane::bytes(facet_count, edge_count, incidences)
+        {
+            Some(Lane::try_new_in(scratch, &solver, facet_count, edge_count)?)
+        } else {
+            None
+        };
 
         let mut stats = SelectStats {
             forced: solver.propagate_root(),
@@ -464,6 +489,7 @@ pub fn try_select_with_in<'a, 'b, A: Alloc<'b>>(
                 components.edges_of(span),
                 &mut stack,
                 &mut ball,
+                lane.as_mut(),
                 &mut budget,
             )?;
             nodes_left = budget.nodes_left;

@@ -7,7 +7,7 @@
 //! [`PROBE_RESPLITS`].
 
 use super::bound::{Levels, MIN_SHARE_MOVE};
-use super::incumbent::Neighbourhood;
+use super::incumbent::{Lane, Neighbourhood};
 use super::solver::{Solver, UNDECIDED};
 use crate::arena::Alloc;
 use crate::error::{Error, Result};
@@ -22,7 +22,7 @@ const PROBE_RESPLITS: usize = 128;
 /// Search nodes between two runs of the rounding heuristic.
 const NODES_PER_ROUNDING: u64 = 16;
 /// Nodes between two progress reports.
-const NODES_PER_REPORT: u64 = 1024;
+pub(super) const NODES_PER_REPORT: u64 = 1024;
 /// Stack level flag: its second branch has been taken.
 const SECOND_BRANCH_TAKEN: u8 = 1;
 /// Stack level flag: its first branch set the facet on.
@@ -106,6 +106,7 @@ impl Solver<'_> {
         edges: &[u32],
         stack: &mut Stack<'_>,
         ball: &mut Neighbourhood<'_>,
+        lane: Option<&mut Lane<'_>>,
         budget: &mut Budget<'_>,
     ) -> Result<Solved> {
         let total_abs_score = facets
@@ -156,6 +157,7 @@ impl Solver<'_> {
             edges,
             stack,
             ball,
+            lane,
             &mut incumbent_value,
             tolerance,
             budget,

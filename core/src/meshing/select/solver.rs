@@ -557,3 +557,168 @@ impl<'a> Solver<'a> {
         }
     }
 }
+
+impl<'a> Fifo<'a> {
+    /// A queue of the same capacity as `other`, in `scratch`, empty.
+    fn try_like_in<'b, A: Alloc<'b>>(scratch: &'a A, other: &Fifo<'_>) -> Result<Self> {
+        Fifo::try_new_in(scratch, other.items.len())
+    }
+
+    /// Make this queue hold what `other` holds (same capacity).
+    fn copy_from(&mut self, other: &Fifo<'_>) {
+        self.items.copy_from_slice(other.items);
+        self.queued.copy_from_slice(other.queued);
+        (self.head, self.len) = (other.head, other.len);
+    }
+}
+
+impl<'a> Solver<'a> {
+    /// A *lane*: a second solver over the same incidence arrays (shared, they
+    /// never change) with its own copy of every array that does, in `scratch`,
+    /// so that a neighbourhood can be searched on it while another is searched
+    /// on `self`. Its state is set by [`Solver::copy_state_from`]; the bytes it
+    /// takes are [`Solver::lane_bytes`].
+    pub(super) fn try_lane_in<'s, 'b, A: Alloc<'b>>(&self, scratch: &'s A) -> Result<Solver<'s>>
+    where
+        'a: 's,
+    {
+        let (f, e, i) = (
+            self.facet_state.len(),
+            self.edge_terms.len(),
+            self.shares.len(),
+        );
+        Ok(Solver {
+            facet_start: self.facet_start,
+            incidence_edge: self.incidence_edge,
+            incidence_facet: self.incidence_facet,
+            scores: self.scores,
+            edge_masks: self.edge_masks,
+            edge_penalties: self.edge_penalties,
+            edge_start: self.edge_start,
+            edge_incidences: self.edge_incidences,
+            incidence_class: self.incidence_class,
+            facet_state: scratch.try_alloc_slice(f, UNDECIDED)?,
+            selected_count: scratch.try_alloc_slice(e, 0u32)?,
+            undecided_count: scratch.try_alloc_slice(e, 0u32)?,
+            edge_queue: Fifo::try_like_in(scratch, &self.edge_queue)?,
+            facet_queue: Fifo::try_like_in(scratch, &self.facet_queue)?,
+            trail: scratch.try_alloc_slice(f, 0u32)?,
+            trail_len: 0,
+            shares: scratch.try_alloc_slice(i, 0.0f64)?,
+            picked_by: scratch.try_alloc_slice(f, 0u8)?,
+            loss_if_on: scratch.try_alloc_slice(i, 0.0f64)?,
+            loss_if_off: scratch.try_alloc_slice(i, 0.0f64)?,
+            top_incidences: scratch.try_alloc_slice(e, [u32::MAX; 3])?,
+            top_shares: scratch.try_alloc_slice(e, [f64::NEG_INFINITY; 5])?,
+            edge_terms: scratch.try_alloc_slice(e, 0.0f64)?,
+            edge_in_problem: scratch.try_alloc_slice(e, false)?,
+            facet_in_problem: scratch.try_alloc_slice(f, false)?,
+            edge_changed: scratch.try_alloc_slice(e, false)?,
+            changed_edges: scratch.try_alloc_slice(e, 0u32)?,
+            changed_len: 0,
+            marginals_stale: scratch.try_alloc_slice(e, false)?,
+            stale_edges: scratch.try_alloc_slice(e, 0u32)?,
+            stale_len: 0,
+            selected_score: 0.0,
+            piece_queue: scratch.try_alloc_slice(f, 0u32)?,
+            visited: scratch.try_alloc_slice(f, false)?,
+            trial: scratch.try_alloc_slice(f, false)?,
+            trial_degree: scratch.try_alloc_slice(e, 0u32)?,
+            neighbourhood_flags: scratch.try_alloc_slice(f, 0u8)?,
+            rounding_enabled: true,
+            score_scale: 1.0,
+            min_share_move: 0.0,
+            incumbent: scratch.try_alloc_slice(f, false)?,
+        })
+    }
+
+    /// Arena bytes of [`Solver::try_lane_in`] for `facets` facets, `edges`
+    /// constraints and `incidences` incidences, alignment padding included.
+    pub(super) fn lane_bytes(facets: usize, edges: usize, incidences: usize) -> usize {
+        use crate::arena::padded_bytes as b;
+        let (f, e, i) = (facets, edges, incidences);
+        let per_facet = [
+            b::<u8>(f),   // facet_state
+            b::<u32>(f),  // facet_queue ring
+            b::<bool>(f), // facet_queue flags
+            b::<u32>(f),  // trail
+            b::<u8>(f),   // picked_by
+            b::<bool>(f), // facet_in_problem
+            b::<u32>(f),  // piece_queue
+            b::<bool>(f), // visited
+            b::<bool>(f), // trial
+            b::<u8>(f),   // neighbourhood_flags
+            b::<bool>(f), // incumbent
+        ];
+        let per_edge = [
+            b::<u32>(e),      // selected_count
+            b::<u32>(e),      // undecided_count
+            b::<u32>(e),      // edge_queue ring
+            b::<bool>(e),     // edge_queue flags
+            b::<[u32; 3]>(e), // top_incidences
+            b::<[f64; 5]>(e), // top_shares
+            b::<f64>(e),      // edge_terms
+            b::<bool>(e),     // edge_in_problem
+            b::<bool>(e),     // edge_changed
+            b::<u32>(e),      // changed_edges
+            b::<bool>(e),     // marginals_stale
+            b::<u32>(e),      // stale_edges
+            b::<u32>(e),      // trial_degree
+        ];
+        let per_incidence = [b::<f64>(i), b::<f64>(i), b::<f64>(i)]; // shares, losses
+        per_facet
+            .iter()
+            .chain(&per_edge)
+            .chain(&per_incidence)
+            .fold(0usize, |s, &x| s.saturating_add(x))
+    }
+
+    /// Make every changing array and value of this lane equal to `main`'s (no
+    /// problem open in either).
+    pub(super) fn copy_state_from(&mut self, main: &Solver<'_>) {
+        self.facet_state.copy_from_slice(main.facet_state);
+        self.selected_count.copy_from_slice(main.selected_count);
+        self.undecided_count.copy_from_slice(main.undecided_count);
+        self.edge_queue.copy_from(&main.edge_queue);
+        self.facet_queue.copy_from(&main.facet_queue);
+        self.trail.copy_from_slice(main.trail);
+        self.trail_len = main.trail_len;
+        self.shares.copy_from_slice(main.shares);
+        self.picked_by.copy_from_slice(main.picked_by);
+        self.loss_if_on.copy_from_slice(main.loss_if_on);
+        self.loss_if_off.copy_from_slice(main.loss_if_off);
+        self.top_incidences.copy_from_slice(main.top_incidences);
+        self.top_shares.copy_from_slice(main.top_shares);
+        self.edge_terms.copy_from_slice(main.edge_terms);
+        self.edge_in_problem.copy_from_slice(main.edge_in_problem);
+        self.facet_in_problem.copy_from_slice(main.facet_in_problem);
+        self.edge_changed.copy_from_slice(main.edge_changed);
+        self.changed_edges.copy_from_slice(main.changed_edges);
+        self.changed_len = main.changed_len;
+        self.marginals_stale.copy_from_slice(main.marginals_stale);
+        self.stale_edges.copy_from_slice(main.stale_edges);
+        self.stale_len = main.stale_len;
+        self.selected_score = main.selected_score;
+        self.piece_queue.copy_from_slice(main.piece_queue);
+        self.visited.copy_from_slice(main.visited);
+        self.trial.copy_from_slice(main.trial);
+        self.trial_degree.copy_from_slice(main.trial_degree);
+        self.neighbourhood_flags
+            .copy_from_slice(main.neighbourhood_flags);
+        self.rounding_enabled = main.rounding_enabled;
+        self.score_scale = main.score_scale;
+        self.min_share_move = main.min_share_move;
+        self.incumbent.copy_from_slice(main.incumbent);
+    }
+
+    /// Copy what a neighbourhood search leaves behind on facets `facets` (their
+    /// shares and their incumbent bits) from `from`.
+    pub(super) fn copy_ball_from(&mut self, from: &Solver<'_>, facets: &[u32]) {
+        for &f in facets {
+            let f = f as usize;
+            let x = self.facet_incidences(f);
+            self.shares[x.clone()].copy_from_slice(&from.shares[x]);
+            self.incumbent[f] = from.incumbent[f];
+        }
+    }
+}

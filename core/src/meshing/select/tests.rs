@@ -757,3 +757,110 @@ fn a_sweep_by_levels_leaves_the_shares_of_a_sweep_facet_after_facet() {
     );
     assert_eq!(levelled, serial);
 }
+
+/// Runs the tasks one after another (last first when `backwards`) but says it
+/// has two threads, so the selection takes its two-thread ways.
+struct TwoThreads {
+    backwards: bool,
+}
+
+impl crate::progress::Progress for TwoThreads {
+    fn report(&mut self, _: crate::progress::Stage, _: u64, _: u64) -> crate::progress::Flow {
+        crate::progress::Flow::Continue
+    }
+
+    fn run(&self, tasks: &mut [&mut dyn crate::parallel::Task]) {
+        if self.backwards {
+            crate::progress::Progress::run(&Backwards, tasks);
+        } else {
+            crate::progress::Progress::run(&Silent, tasks);
+        }
+    }
+
+    fn threads(&self) -> usize {
+        2
+    }
+}
+
+/// The crossed grid with pseudo-random scores from `seed`, and a third of
+/// its edges allowed to end on one facet at a random penalty.
+fn bordered_grid(side: u32, seed: u64) -> (Mesh, Vec<f32>, Vec<u8>, Vec<f32>) {
+    let (m, _) = crossed_grid(side);
+    let mut s = seed;
+    let mut next = move || {
+        s = s
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (s >> 33) as u32
+    };
+    let scores = (0..m.facets.len())
+        .map(|_| (next() % 2001) as f32 / 1000.0 - 0.9)
+        .collect();
+    let mask = (0..m.edges.len())
+        .map(|_| {
+            if next() % 3 == 0 {
+                MASK_BORDER
+            } else {
+                MASK_CLOSED
+            }
+        })
+        .collect();
+    let pens = (0..m.edges.len())
+        .map(|_| (next() % 100) as f32 / 200.0)
+        .collect();
+    (m, scores, mask, pens)
+}
+
+#[test]
+fn two_balls_at_once_on_a_lane_give_the_selection_of_balls_in_turn() {
+    use core::sync::atomic::Ordering::Relaxed;
+    let counts = || incumbent::LANE_COUNTS.each_ref().map(|c| c.load(Relaxed));
+    let start = counts();
+    let compare = |input: &SelectInput<'_>| {
+        let bytes = 2 * select_bytes_for(input) + 64 * input.facet_edges.len();
+        let solve = |progress: &mut dyn crate::progress::Progress| {
+            let mut buf = vec![MaybeUninit::<u8>::uninit(); bytes];
+            let arena = Arena::new(&mut buf);
+            let (sel, st) = try_select_with_in(&arena, input, progress).unwrap();
+            let bits = [st.objective, st.upper_bound, st.gap].map(f64::to_bits);
+            (sel.to_vec(), bits, st.nodes, arena.peak())
+        };
+        let (one, one_bits, one_nodes, one_peak) = solve(&mut Silent);
+        for backwards in [false, true] {
+            let (two, two_bits, two_nodes, two_peak) = solve(&mut TwoThreads { backwards });
+            assert_eq!(one, two, "limit {}", input.node_limit);
+            assert_eq!((one_bits, one_nodes), (two_bits, two_nodes));
+            assert!(two_peak > one_peak, "no lane was taken");
+        }
+    };
+    // The crossed grid's facets scrambled (`shift` 0: in grid order).
+    for (side, shift, limit) in [(12, 0, 200), (14, 385, 200), (12, 101, 400)] {
+        let (m, scores) = crossed_grid(side);
+        let n = m.facets.len();
+        let order = |i: usize| if shift == 0 { i } else { (i * shift) % n };
+        let facet_edges: Vec<_> = (0..n).map(|i| m.facets[order(i)]).collect();
+        let scores: Vec<f32> = (0..n).map(|i| scores[order(i)]).collect();
+        compare(&SelectInput::new(
+            &facet_edges,
+            &scores,
+            m.edges.len(),
+            limit,
+        ));
+    }
+    // Node limits that end the search within a pair of balls, where the
+    // first ball's nodes decide whether the second's result counts.
+    let (m, scores, mask, pens) = bordered_grid(12, 12348);
+    for limit in 20..=40 {
+        compare(&SelectInput {
+            edge_mask: Some(&mask),
+            edge_penalty: Some(&pens),
+            ..SelectInput::new(&m.facets, &scores, m.edges.len(), limit)
+        });
+    }
+    // Every way of the lane ran: pairs kept, second balls searched again,
+    // next balls refused for an edge in common.
+    let end = counts();
+    for (i, way) in ["kept", "searched again", "refused"].iter().enumerate() {
+        assert!(end[i] > start[i], "no pair {way}: {start:?} to {end:?}");
+    }
+}
