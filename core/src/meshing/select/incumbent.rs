@@ -71,7 +71,7 @@ pub(super) struct Lane<'a> {
 }
 
 impl<'a> Lane<'a> {
-    /// A lane beside `main`, in `scratch` ([`Lane::bytes`] of it).
+    /// A lane beside `main`, in `scratch` (`lane_bytes` of it).
     pub(super) fn try_new_in<'b, A: Alloc<'b>>(
         scratch: &'a A,
         main: &Solver<'a>,
@@ -85,17 +85,6 @@ impl<'a> Lane<'a> {
             ball_facets: 0,
             ball_edges: 0,
         })
-    }
-
-    /// Arena bytes of a lane for `facets` facets, `edges` constraints and
-    /// `incidences` incidences.
-    pub(super) fn bytes(facets: usize, edges: usize, incidences: usize) -> usize {
-        use crate::arena::padded_bytes as b;
-        let stack = b::<u32>(facets) + b::<u32>(facets) + b::<u8>(facets) + b::<f64>(facets);
-        let ball = b::<u32>(facets) + b::<u32>(edges);
-        Solver::lane_bytes(facets, edges, incidences)
-            .saturating_add(stack)
-            .saturating_add(ball)
     }
 }
 

@@ -280,43 +280,68 @@ fn bytes_needed(facets: usize, edges: usize, incidences: usize) -> usize {
         array_bytes::<u32>(i),                   // incidence_edge
         array_bytes::<u32>(i),                   // incidence_facet
         array_bytes::<u32>(i),                   // incidence_class
-        array_bytes::<u8>(f),                    // facet_state
-        array_bytes::<u32>(e),                   // selected_count
-        array_bytes::<u32>(e),                   // undecided_count
-        array_bytes::<u32>(e),                   // edge_queue ring
-        array_bytes::<bool>(e),                  // edge_queue flags
-        array_bytes::<u32>(f),                   // facet_queue ring
-        array_bytes::<bool>(f),                  // facet_queue flags
-        array_bytes::<u32>(f),                   // trail
-        array_bytes::<f64>(i),                   // shares
-        array_bytes::<u8>(f),                    // picked_by
-        array_bytes::<f64>(i),                   // loss_if_on
-        array_bytes::<f64>(i),                   // loss_if_off
-        array_bytes::<[u32; 3]>(e),              // top_incidences
-        array_bytes::<[f64; 5]>(e),              // top_shares
-        array_bytes::<f64>(e),                   // edge_terms
-        array_bytes::<bool>(e),                  // edge_in_problem
-        array_bytes::<bool>(f),                  // facet_in_problem
-        array_bytes::<bool>(e),                  // edge_changed
-        array_bytes::<u32>(e),                   // changed_edges
-        array_bytes::<bool>(e),                  // marginals_stale
-        array_bytes::<u32>(e),                   // stale_edges
-        array_bytes::<u32>(f),                   // piece_queue
-        array_bytes::<bool>(f),                  // visited
-        array_bytes::<bool>(f),                  // trial
-        array_bytes::<u32>(e),                   // trial_degree
-        array_bytes::<u8>(f),                    // neighbourhood_flags
-        array_bytes::<u32>(f),                   // neighbourhood facets
-        array_bytes::<u32>(e),                   // neighbourhood edges
-        array_bytes::<u32>(f),                   // component facets
-        array_bytes::<u32>(e),                   // component edges
-        array_bytes::<ComponentSpan>(f),         // component spans
-        array_bytes::<u32>(f),                   // stack facets
-        array_bytes::<u32>(f),                   // stack trail marks
-        array_bytes::<u8>(f),                    // stack branch flags
-        array_bytes::<f64>(f),                   // stack bounds
+        state_bytes(f, e, i),
+        array_bytes::<u32>(f), // component facets
+        array_bytes::<u32>(e), // component edges
+        array_bytes::<ComponentSpan>(f),
+        search_bytes(f, e),
     ];
     list.iter().fold(0usize, |a, &b| a.saturating_add(b))
+}
+
+/// Bytes of the arrays of a [`Solver`] that change as it runs (its state,
+/// queues, trail, shares and caches), in `Solver::try_new_in`'s order.
+fn state_bytes(f: usize, e: usize, i: usize) -> usize {
+    let list = [
+        array_bytes::<u8>(f),       // facet_state
+        array_bytes::<u32>(e),      // selected_count
+        array_bytes::<u32>(e),      // undecided_count
+        array_bytes::<u32>(e),      // edge_queue ring
+        array_bytes::<bool>(e),     // edge_queue flags
+        array_bytes::<u32>(f),      // facet_queue ring
+        array_bytes::<bool>(f),     // facet_queue flags
+        array_bytes::<u32>(f),      // trail
+        array_bytes::<f64>(i),      // shares
+        array_bytes::<u8>(f),       // picked_by
+        array_bytes::<f64>(i),      // loss_if_on
+        array_bytes::<f64>(i),      // loss_if_off
+        array_bytes::<[u32; 3]>(e), // top_incidences
+        array_bytes::<[f64; 5]>(e), // top_shares
+        array_bytes::<f64>(e),      // edge_terms
+        array_bytes::<bool>(e),     // edge_in_problem
+        array_bytes::<bool>(f),     // facet_in_problem
+        array_bytes::<bool>(e),     // edge_changed
+        array_bytes::<u32>(e),      // changed_edges
+        array_bytes::<bool>(e),     // marginals_stale
+        array_bytes::<u32>(e),      // stale_edges
+        array_bytes::<u32>(f),      // piece_queue
+        array_bytes::<bool>(f),     // visited
+        array_bytes::<bool>(f),     // trial
+        array_bytes::<u32>(e),      // trial_degree
+        array_bytes::<u8>(f),       // neighbourhood_flags
+    ];
+    list.iter().fold(0usize, |a, &b| a.saturating_add(b))
+}
+
+/// Bytes of a neighbourhood (its facets and edges) and a search stack.
+fn search_bytes(f: usize, e: usize) -> usize {
+    let list = [
+        array_bytes::<u32>(f), // neighbourhood facets
+        array_bytes::<u32>(e), // neighbourhood edges
+        array_bytes::<u32>(f), // stack facets
+        array_bytes::<u32>(f), // stack trail marks
+        array_bytes::<u8>(f),  // stack branch flags
+        array_bytes::<f64>(f), // stack bounds
+    ];
+    list.iter().fold(0usize, |a, &b| a.saturating_add(b))
+}
+
+/// Bytes of a lane (`incumbent::Lane`): a solver's state and incumbent, a
+/// neighbourhood and a search stack.
+fn lane_bytes(f: usize, e: usize, i: usize) -> usize {
+    state_bytes(f, e, i)
+        .saturating_add(array_bytes::<bool>(f))
+        .saturating_add(search_bytes(f, e))
 }
 
 fn bad_parameter(name: &'static str, value: f32) -> Error {
@@ -452,7 +477,7 @@ pub fn try_select_with_in<'a, 'b, A: Alloc<'b>>(
         let incidences = solver.shares.len();
         let mut lane = if progress.threads() >= 2
             && facet_count >= MIN_LANE_FACETS
-            && scratch.available() >= Lane::bytes(facet_count, edge_count, incidences)
+            && scratch.available() >= lane_bytes(facet_count, edge_count, incidences)
         {
             Some(Lane::try_new_in(scratch, &solver, facet_count, edge_count)?)
         } else {

@@ -577,7 +577,7 @@ impl<'a> Solver<'a> {
     /// never change) with its own copy of every array that does, in `scratch`,
     /// so that a neighbourhood can be searched on it while another is searched
     /// on `self`. Its state is set by [`Solver::copy_state_from`]; the bytes it
-    /// takes are [`Solver::lane_bytes`].
+    /// takes are counted by `state_bytes` in the module above.
     pub(super) fn try_lane_in<'s, 'b, A: Alloc<'b>>(&self, scratch: &'s A) -> Result<Solver<'s>>
     where
         'a: 's,
@@ -630,47 +630,6 @@ impl<'a> Solver<'a> {
             min_share_move: 0.0,
             incumbent: scratch.try_alloc_slice(f, false)?,
         })
-    }
-
-    /// Arena bytes of [`Solver::try_lane_in`] for `facets` facets, `edges`
-    /// constraints and `incidences` incidences, alignment padding included.
-    pub(super) fn lane_bytes(facets: usize, edges: usize, incidences: usize) -> usize {
-        use crate::arena::padded_bytes as b;
-        let (f, e, i) = (facets, edges, incidences);
-        let per_facet = [
-            b::<u8>(f),   // facet_state
-            b::<u32>(f),  // facet_queue ring
-            b::<bool>(f), // facet_queue flags
-            b::<u32>(f),  // trail
-            b::<u8>(f),   // picked_by
-            b::<bool>(f), // facet_in_problem
-            b::<u32>(f),  // piece_queue
-            b::<bool>(f), // visited
-            b::<bool>(f), // trial
-            b::<u8>(f),   // neighbourhood_flags
-            b::<bool>(f), // incumbent
-        ];
-        let per_edge = [
-            b::<u32>(e),      // selected_count
-            b::<u32>(e),      // undecided_count
-            b::<u32>(e),      // edge_queue ring
-            b::<bool>(e),     // edge_queue flags
-            b::<[u32; 3]>(e), // top_incidences
-            b::<[f64; 5]>(e), // top_shares
-            b::<f64>(e),      // edge_terms
-            b::<bool>(e),     // edge_in_problem
-            b::<bool>(e),     // edge_changed
-            b::<u32>(e),      // changed_edges
-            b::<bool>(e),     // marginals_stale
-            b::<u32>(e),      // stale_edges
-            b::<u32>(e),      // trial_degree
-        ];
-        let per_incidence = [b::<f64>(i), b::<f64>(i), b::<f64>(i)]; // shares, losses
-        per_facet
-            .iter()
-            .chain(&per_edge)
-            .chain(&per_incidence)
-            .fold(0usize, |s, &x| s.saturating_add(x))
     }
 
     /// Make every changing array and value of this lane equal to `main`'s (no
