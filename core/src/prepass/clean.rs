@@ -35,6 +35,7 @@ use crate::arena::Arena;
 use crate::clustering::knn;
 use crate::error::{Error, Result};
 use crate::math::{dist2, V3};
+use crate::parallel;
 use crate::params::Params;
 use crate::progress::{tick, Progress, Stage};
 use crate::union_find::UnionFind;
@@ -146,17 +147,20 @@ pub fn clean_with_rows(
                 rows.knn
             }
         };
-        // d_i: mean distance to the k nearest.
+        // d_i: mean distance to the k nearest, point by point in parallel tasks.
         let mean = s.try_alloc_slice::<f32>(n, 0.0)?;
-        for (i, (row, d)) in knn.chunks_exact(k).zip(mean.iter_mut()).enumerate() {
-            let p = points[i];
-            let sum: f64 = row
-                .iter()
-                .filter_map(|&j| points.get(j as usize))
-                .map(|&q| libm::sqrt(dist2(p, q) as f64))
-                .sum();
-            *d = (sum / k as f64) as f32;
-        }
+        parallel::rows(&*progress, mean, 1, |items, out: &mut [f32]| {
+            for (i, d) in items.zip(out) {
+                let p = points[i];
+                let row = knn.get(i * k..(i + 1) * k).unwrap_or(&[]);
+                let sum: f64 = row
+                    .iter()
+                    .filter_map(|&j| points.get(j as usize))
+                    .map(|&q| libm::sqrt(dist2(p, q) as f64))
+                    .sum();
+                *d = (sum / k as f64) as f32;
+            }
+        });
         if params.outlier_sigma > 0.0 {
             let (mu, sigma) = mean_and_deviation(mean.iter().copied());
             let limit = mu + params.outlier_sigma as f64 * sigma;
