@@ -12,7 +12,7 @@
 //! | stage | live at its peak | bytes per point (k = 12) |
 //! |---|---|---|
 //! | neighbours | k-NN table + the larger of the grid scratch and the reverse table being built | 48 + 92 |
-//! | quadrics | k-NN + reverse table (worst case: no mutual neighbours) + planes | 48 + 52 + 16 |
+//! | quadrics | k-NN + reverse table (worst case: no mutual neighbours) + planes + their scratch (each point's weight, then a byte per point the noise floor samples, 8,191 at most) | 48 + 52 + 16 + 4 (+ 1) |
 //! | clustering | the above + labels + the largest scratch step (a partition) | 116 + 4 + 16 |
 //! | meshing | the above (without scratch) + the meshing capacity | 120 + 4 + per cluster |
 //!
@@ -218,10 +218,14 @@ pub fn mesh_capacity(n: usize, cap: usize, params: &Params) -> usize {
 fn stages(n: usize, params: &Params, reverse_edges: usize, searched: bool) -> (usize, usize) {
     let k = params.k.clamp(1, MAX_K);
     let (neighbours, nb_kept) = knn::neighbours_bytes_for(n, k, reverse_edges, searched);
-    let quadrics = nb_kept.saturating_add(quadric::planes_bytes(n));
+    let quadrics = nb_kept
+        .saturating_add(quadric::planes_bytes(n))
+        .saturating_add(quadric::planes_scratch_bytes(n));
     let sweeps = params.partition.sweeps(n);
     let (cl_kept, cl_scratch) = partition::partition_bytes(n, cap_bound(n, params), sweeps);
-    let kept = quadrics.saturating_add(cl_kept);
+    let kept = nb_kept
+        .saturating_add(quadric::planes_bytes(n))
+        .saturating_add(cl_kept);
     let clustering = kept.saturating_add(cl_scratch);
     (neighbours.max(quadrics).max(clustering), kept)
 }

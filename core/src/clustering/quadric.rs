@@ -114,16 +114,24 @@ pub fn try_planes_in<'a>(
         |()| {},
     )?;
     let planes: &'a [Plane] = planes;
-    let mut total = 0.0f64;
     let view = Planes {
         planes,
         mean_weight: 0.0,
         noise: 0.0,
     };
-    for i in 0..n {
-        total += view.diffused_weight(nb, i) as f64;
-    }
-    let noise = noise_floor(&view, nb, n);
+    // Each point's weight in parallel tasks, summed in point order (the sum
+    // of one thread); then the noise floor's bins the same way.
+    let (total, noise) = arena.scratch(|s| -> Result<(f64, f32)> {
+        let weights = s.try_alloc_slice::<f32>(n, 0.0)?;
+        parallel::rows(&*progress, weights, 1, |items, out: &mut [f32]| {
+            for (i, w) in items.zip(out.iter_mut()) {
+                *w = view.diffused_weight(nb, i);
+            }
+        });
+        let total = weights.iter().map(|&w| w as f64).sum::<f64>();
+        let bins = s.try_alloc_slice::<u8>(floor_samples(n), 0)?;
+        Ok((total, noise_floor(&view, nb, n, bins, &*progress)))
+    })?;
     tick(progress, Stage::Quadrics, n as u64, n as u64)?;
     Ok(Planes {
         planes,
@@ -165,35 +173,39 @@ const FLOOR_BINS: usize = ((FLOOR_OCTAVES.1 - FLOOR_OCTAVES.0) * FLOOR_BINS_PER_
 /// RMS, the tangent planes of a point's neighbourhood stay from any single
 /// point. It is the least error [`crate::clustering::split`] can reach, so a tolerance below
 /// it splits noise, not shape. The median of a log-scale histogram around the
-/// spacing (160 bins on the stack, no arena memory), to within 4.4 %, over
-/// every point below 8192 points and every `n / 4096`-th point beyond (at least
-/// 4096 of them: a median needs no more, and the full pass cost as much as the
-/// quadrics). O(min(n, 8192) k) time. 0 when no neighbourhood has weight.
-pub fn noise_floor(planes: &Planes, nb: &Neighbours, n: usize) -> f32 {
+/// spacing (160 bins on the stack), to within 4.4 %, over every point below
+/// 8192 points and every `n / 4096`-th point beyond (at least 4096 of them: a
+/// median needs no more, and the full pass cost as much as the quadrics). The
+/// points' bins are found in parallel tasks of `hooks`, each into its byte of
+/// `bins` (scratch of [`floor_samples`] bytes; fewer leave the floor 0), then
+/// counted. O(min(n, 8192) k) time. 0 when no neighbourhood has weight.
+pub fn noise_floor(
+    planes: &Planes,
+    nb: &Neighbours,
+    n: usize,
+    bins: &mut [u8],
+    hooks: &dyn Progress,
+) -> f32 {
     let unit = nb.spacing as f64;
     if !(unit > 0.0 && unit.is_finite()) {
         return 0.0;
     }
+    let step = floor_step(n);
+    // A byte a sampled point: its bin, or NO_BIN for a point without weight.
+    const NO_BIN: u8 = u8::MAX;
+    const _: () = assert!(FLOOR_BINS <= NO_BIN as usize);
+    let Some(bins) = bins.get_mut(..floor_samples(n)) else {
+        return 0.0;
+    };
+    parallel::rows(hooks, bins, 1, |items, out: &mut [u8]| {
+        for (j, bin) in items.zip(out.iter_mut()) {
+            *bin = floor_bin(planes, nb, j * step, unit).map_or(NO_BIN, |b| b as u8);
+        }
+    });
     let mut hist = [0u32; FLOOR_BINS];
     let mut count = 0u32;
-    for i in (0..n).step_by((n / 4096).max(1)) {
-        let mut q = Quadric::default();
-        planes.accumulate_diffused(nb, i, &mut q);
-        let w = q.a[0] + q.a[3] + q.a[5];
-        if !(w > 0.0 && w.is_finite()) {
-            continue;
-        }
-        // The minimiser is independent of where the solve is centred (up to
-        // rounding); the origin keeps this a function of the planes alone.
-        let (x, _) = q.minimizer(0.0, [0.0; 3]);
-        let v = libm::sqrt(q.eval(x).max(0.0) / w) / unit;
-        let bin = if v > 0.0 && v.is_finite() {
-            let b = (libm::log2(v) - FLOOR_OCTAVES.0 as f64) * FLOOR_BINS_PER_OCTAVE as f64;
-            b.clamp(0.0, (FLOOR_BINS - 1) as f64) as usize
-        } else {
-            0
-        };
-        hist[bin] += 1;
+    for &b in bins.iter().filter(|&&b| b != NO_BIN) {
+        hist[b as usize] += 1;
         count += 1;
     }
     let mut seen = 0u32;
@@ -208,6 +220,44 @@ pub fn noise_floor(planes: &Planes, nb: &Neighbours, n: usize) -> f32 {
         }
     }
     0.0
+}
+
+/// [`noise_floor`] samples every this many points of `n`.
+fn floor_step(n: usize) -> usize {
+    (n / 4096).max(1)
+}
+
+/// Points [`noise_floor`] samples of `n` (at most 8191).
+pub fn floor_samples(n: usize) -> usize {
+    n.div_ceil(floor_step(n))
+}
+
+/// Arena scratch [`try_planes_in`] takes after the planes for `n` points:
+/// each point's weight, then the noise floor's bins.
+pub fn planes_scratch_bytes(n: usize) -> usize {
+    crate::arena::padded_bytes::<f32>(n)
+        .saturating_add(crate::arena::padded_bytes::<u8>(floor_samples(n)))
+}
+
+/// [`noise_floor`]'s histogram bin of point `i`, `None` when its diffused
+/// quadric has no weight.
+fn floor_bin(planes: &Planes, nb: &Neighbours, i: usize, unit: f64) -> Option<usize> {
+    let mut q = Quadric::default();
+    planes.accumulate_diffused(nb, i, &mut q);
+    let w = q.a[0] + q.a[3] + q.a[5];
+    if !(w > 0.0 && w.is_finite()) {
+        return None;
+    }
+    // The minimiser is independent of where the solve is centred (up to
+    // rounding); the origin keeps this a function of the planes alone.
+    let (x, _) = q.minimizer(0.0, [0.0; 3]);
+    let v = libm::sqrt(q.eval(x).max(0.0) / w) / unit;
+    Some(if v > 0.0 && v.is_finite() {
+        let b = (libm::log2(v) - FLOOR_OCTAVES.0 as f64) * FLOOR_BINS_PER_OCTAVE as f64;
+        b.clamp(0.0, (FLOOR_BINS - 1) as f64) as usize
+    } else {
+        0
+    })
 }
 
 /// Surface variation at which a plane's weight halves.
