@@ -119,6 +119,11 @@ pub(crate) type Need = fn(usize, &Params, usize, bool) -> usize;
 /// any cloud needs) and again once the neighbour graph's reverse-only edges
 /// are counted, before their table is allocated; either check failing is
 /// [`Error::ArenaTooSmall`].
+///
+/// Never inlined: inlined into [`crate::reconstruct_with_rows`], its locals
+/// would sit under every meshing round (the firmware's stack mark rose by
+/// 4,376 bytes when a smaller quadrics stage let LLVM inline it).
+#[inline(never)]
 pub(crate) fn try_clustering_in<'a>(
     arena: &'a Arena,
     points: &[V3],

@@ -119,24 +119,38 @@ pub fn try_planes_in<'a>(
         mean_weight: 0.0,
         noise: 0.0,
     };
-    // Each point's weight in parallel tasks, summed in point order (the sum
-    // of one thread); then the noise floor's bins the same way.
-    let (total, noise) = arena.scratch(|s| -> Result<(f64, f32)> {
+    let (total, noise) = weight_and_floor(arena, &view, nb, &*progress)?;
+    tick(progress, Stage::Quadrics, n as u64, n as u64)?;
+    Ok(Planes {
+        planes,
+        mean_weight: (total / n.max(1) as f64) as f32,
+        noise,
+    })
+}
+
+/// The total weight of the points' diffused quadrics and their
+/// [`noise_floor`], in scratch: each point's weight in parallel tasks of
+/// `hooks`, summed in point order (the sum of one thread), then the floor's
+/// bins the same way. Never inlined: the tasks' arrays stay off the stack of
+/// the stages after (the firmware's deepest frames are in meshing).
+#[inline(never)]
+fn weight_and_floor(
+    arena: &Arena,
+    view: &Planes,
+    nb: &Neighbours,
+    hooks: &dyn Progress,
+) -> Result<(f64, f32)> {
+    let n = view.planes.len();
+    arena.scratch(|s| -> Result<(f64, f32)> {
         let weights = s.try_alloc_slice::<f32>(n, 0.0)?;
-        parallel::rows(&*progress, weights, 1, |items, out: &mut [f32]| {
+        parallel::rows(hooks, weights, 1, |items, out: &mut [f32]| {
             for (i, w) in items.zip(out.iter_mut()) {
                 *w = view.diffused_weight(nb, i);
             }
         });
         let total = weights.iter().map(|&w| w as f64).sum::<f64>();
         let bins = s.try_alloc_slice::<u8>(floor_samples(n), 0)?;
-        Ok((total, noise_floor(&view, nb, n, bins, &*progress)))
-    })?;
-    tick(progress, Stage::Quadrics, n as u64, n as u64)?;
-    Ok(Planes {
-        planes,
-        mean_weight: (total / n.max(1) as f64) as f32,
-        noise,
+        Ok((total, noise_floor(view, nb, n, bins, hooks)))
     })
 }
 
