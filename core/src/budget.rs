@@ -216,6 +216,13 @@ pub fn mesh_capacity(n: usize, cap: usize, params: &Params) -> usize {
 /// `reverse_edges` reverse-only neighbour edges, the k-NN table in the arena
 /// (and its search's scratch) when `searched`.
 fn stages(n: usize, params: &Params, reverse_edges: usize, searched: bool) -> (usize, usize) {
+    let [neighbours, quadrics, clustering, kept] = stage_peaks(n, params, reverse_edges, searched);
+    (neighbours.max(quadrics).max(clustering), kept)
+}
+
+/// The peaks of the neighbour, quadrics and clustering stages of [`stages`],
+/// and what clustering keeps.
+fn stage_peaks(n: usize, params: &Params, reverse_edges: usize, searched: bool) -> [usize; 4] {
     let k = params.k.clamp(1, MAX_K);
     let (neighbours, nb_kept) = knn::neighbours_bytes_for(n, k, reverse_edges, searched);
     let quadrics = nb_kept
@@ -227,7 +234,7 @@ fn stages(n: usize, params: &Params, reverse_edges: usize, searched: bool) -> (u
         .saturating_add(quadric::planes_bytes(n))
         .saturating_add(cl_kept);
     let clustering = kept.saturating_add(cl_scratch);
-    (neighbours.max(quadrics).max(clustering), kept)
+    [neighbours, quadrics, clustering, kept]
 }
 
 /// Arena bytes that are always enough for one round of
@@ -241,4 +248,37 @@ pub(crate) fn smooth_bound(n: usize, k: usize) -> usize {
     buffer_for(round_up(
         rows.saturating_add(knn::grid_scratch_bytes(n).max(copy)),
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The quadrics stage's scratch (each point's weight, the noise floor's
+    /// bins) never sets the bound: the clustering stage after it holds more,
+    /// for every point count, neighbour count and reverse table tried.
+    #[test]
+    fn the_quadrics_stage_stays_below_the_clustering_stage() {
+        let counts = (1..3000).chain([4095, 4096, 8191, 8192, 100_000, 1 << 20, 10_000_000]);
+        for n in counts {
+            for k in [1, 4, 12, MAX_K] {
+                for clusters in [1, 1000] {
+                    let params = Params {
+                        k,
+                        clusters,
+                        ..Params::default()
+                    };
+                    for (reverse, searched) in [(0, true), (n * k, true), (0, false)] {
+                        let [_, quadrics, clustering, _] =
+                            stage_peaks(n, &params, reverse, searched);
+                        assert!(
+                            quadrics <= clustering,
+                            "n {n}, k {k}, clusters {clusters}, reverse {reverse}: \
+                             quadrics {quadrics} > clustering {clustering}"
+                        );
+                    }
+                }
+            }
+        }
+    }
 }
