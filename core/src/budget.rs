@@ -225,14 +225,11 @@ fn stages(n: usize, params: &Params, reverse_edges: usize, searched: bool) -> (u
 fn stage_peaks(n: usize, params: &Params, reverse_edges: usize, searched: bool) -> [usize; 4] {
     let k = params.k.clamp(1, MAX_K);
     let (neighbours, nb_kept) = knn::neighbours_bytes_for(n, k, reverse_edges, searched);
-    let quadrics = nb_kept
-        .saturating_add(quadric::planes_bytes(n))
-        .saturating_add(quadric::planes_scratch_bytes(n));
+    let planes = nb_kept.saturating_add(quadric::planes_bytes(n));
+    let quadrics = planes.saturating_add(quadric::planes_scratch_bytes(n));
     let sweeps = params.partition.sweeps(n);
     let (cl_kept, cl_scratch) = partition::partition_bytes(n, cap_bound(n, params), sweeps);
-    let kept = nb_kept
-        .saturating_add(quadric::planes_bytes(n))
-        .saturating_add(cl_kept);
+    let kept = planes.saturating_add(cl_kept);
     let clustering = kept.saturating_add(cl_scratch);
     [neighbours, quadrics, clustering, kept]
 }
