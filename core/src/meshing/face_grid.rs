@@ -2,19 +2,30 @@
 //! or a box, without a scan of all faces. The point-to-mesh distances and the
 //! self-intersection test both query it.
 //!
-//! Every face is entered in each cell its bounding box overlaps. The grid is one
-//! sorted array of `(cell << 32) | face` keys, so a cell's faces are one run,
-//! found by binary search: 8 bytes per entry, beside each face's bounding box
-//! (24 bytes), so that a query rules most faces out without reading their
-//! corners. The cell size starts at the mean bounding-box extent of the faces
-//! and doubles until the entries number at most [`ENTRIES_PER_FACE`] per face
-//! and the grid at most [`MAX_CELLS_PER_AXIS`] cells along an axis, so memory is
-//! at most `8 × ENTRIES_PER_FACE + 24` bytes per face whatever the faces' shapes.
+//! Every face is entered in each cell its bounding box overlaps, beside each
+//! face's bounding box (24 bytes), so that a query rules most faces out without
+//! reading their corners. The cell size starts at the mean bounding-box extent
+//! of the faces and doubles until the entries number at most
+//! [`ENTRIES_PER_FACE`] per face and the grid at most [`MAX_CELLS_PER_AXIS`]
+//! cells along an axis. The entries take one of two layouts, 8 bytes an entry
+//! at most either way, so memory is at most `8 × ENTRIES_PER_FACE + 24` bytes
+//! per face whatever the faces' shapes:
 //!
-//! Cost: building, O(E log E) for E entries; a nearest-face query, O(faces in
-//! the rings searched × log E); it falls back to a scan of all faces when a ring
-//! would hold more cells than there are faces, so a query never costs more than
-//! O(F) beyond that.
+//! - *dense*, when the grid has fewer cells than entries (a mesh of a few
+//!   thousand faces): each cell's faces listed cell after cell (4 bytes an
+//!   entry) and where each cell's list begins (4 bytes a cell), made by a
+//!   counting sort; a cell's faces are found at once;
+//! - *sparse*, otherwise: one sorted array of `(cell << 32) | face` keys, so
+//!   a cell's faces are one run, found by binary search.
+//!
+//! Both list a cell's faces in ascending order and the cells in the same
+//! order, so every answer is the same whichever layout the grid takes.
+//!
+//! Cost: building, O(E + C) dense and O(E log E) sparse for E entries and C
+//! cells; a nearest-face query, O(faces in the rings searched), times log E
+//! sparse; it falls back to a scan of all faces when a ring would hold more
+//! cells than there are faces, so a query never costs more than O(F) beyond
+//! that.
 
 use crate::arena::Alloc;
 use crate::error::Result;
@@ -33,8 +44,16 @@ pub const MAX_CELLS_PER_AXIS: u32 = 1 << 10;
 /// `origin + h [x, x+1) × [y, y+1) × [z, z+1)`.
 #[derive(Clone, Copy)]
 pub struct FaceGrid<'a> {
-    /// Sorted `(cell key << 32) | face` entries.
+    /// Sparse layout: sorted `(cell key << 32) | face` entries (empty when
+    /// dense).
     entries: &'a [u64],
+    /// Dense layout: where each cell's faces begin in `listed`, by cell index
+    /// `(x dims[1] + y) dims[2] + z`, then the entry count (empty when
+    /// sparse).
+    starts: &'a [u32],
+    /// Dense layout: the faces of each cell, cell after cell, ascending in a
+    /// cell (empty when sparse).
+    listed: &'a [u32],
     /// Each face's bounding box (empty, lowest above highest, for a face left
     /// out), so that a query rules most faces out without their corners.
     boxes: &'a [(V3, V3)],
@@ -78,6 +97,29 @@ fn pack(c: [u32; 3]) -> u64 {
     ((c[0] as u64) << 20) | ((c[1] as u64) << 10) | c[2] as u64
 }
 
+/// The faces of one cell, in either layout.
+#[derive(Clone, Copy)]
+enum Run<'a> {
+    Keys(&'a [u64]),
+    Faces(&'a [u32]),
+}
+
+impl Run<'_> {
+    fn len(&self) -> usize {
+        match self {
+            Run::Keys(k) => k.len(),
+            Run::Faces(f) => f.len(),
+        }
+    }
+
+    fn get(&self, i: usize) -> Option<u32> {
+        match self {
+            Run::Keys(k) => k.get(i).map(|&e| e as u32),
+            Run::Faces(f) => f.get(i).copied(),
+        }
+    }
+}
+
 impl<'a> FaceGrid<'a> {
     /// The grid of `faces` over `vertices`, in memory from `alloc`. Faces with an
     /// index out of range or a non-finite corner are left out (never found).
@@ -86,12 +128,31 @@ impl<'a> FaceGrid<'a> {
         vertices: &'a [V3],
         faces: &'a [[u32; 3]],
     ) -> Result<FaceGrid<'a>> {
+        Self::try_build_in(alloc, vertices, faces, true)
+    }
+
+    /// [`FaceGrid::try_new_in`], in the dense layout when `dense` and the
+    /// grid has fewer cells than entries, else sparse.
+    fn try_build_in<'b, A: Alloc<'b>>(
+        alloc: &'a A,
+        vertices: &'a [V3],
+        faces: &'a [[u32; 3]],
+        dense: bool,
+    ) -> Result<FaceGrid<'a>> {
         let mut lo = [f32::INFINITY; 3];
         let mut hi = [f32::NEG_INFINITY; 3];
         let mut extent = 0.0f64;
         let mut counted = 0usize;
-        for t in faces.iter().filter_map(|&f| corners(vertices, f)) {
+        let boxes = alloc.try_alloc_slice::<(V3, V3)>(
+            faces.len(),
+            ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
+        )?;
+        for (slot, &face) in boxes.iter_mut().zip(faces) {
+            let Some(t) = corners(vertices, face) else {
+                continue;
+            };
             let (a, b) = bbox(&t);
+            *slot = (a, b);
             for k in 0..3 {
                 lo[k] = lo[k].min(a[k]);
                 hi[k] = hi[k].max(b[k]);
@@ -101,7 +162,9 @@ impl<'a> FaceGrid<'a> {
         }
         let mut grid = FaceGrid {
             entries: &[],
-            boxes: &[],
+            starts: &[],
+            listed: &[],
+            boxes,
             origin: lo,
             h: 1.0,
             dims: [1; 3],
@@ -131,27 +194,77 @@ impl<'a> FaceGrid<'a> {
             }
             h *= 2.0;
         };
-        let boxes = alloc.try_alloc_slice::<(V3, V3)>(
-            faces.len(),
-            ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
-        )?;
-        for (b, &face) in boxes.iter_mut().zip(faces) {
-            if let Some(t) = corners(vertices, face) {
-                *b = bbox(&t);
+        let cells = grid
+            .dims
+            .iter()
+            .fold(1usize, |n, &d| n.saturating_mul(d as usize));
+        let fits_u32 = total
+            .checked_add(cells)
+            .is_some_and(|x| x < u32::MAX as usize);
+        if dense && cells < total && fits_u32 {
+            // A counting sort: each cell's count, their running sums (where
+            // each cell's list ends), then the faces from the last, each
+            // cell's list filled from its end, so ascending in a cell.
+            let all = alloc.try_alloc_slice::<u32>(total + cells + 1, 0)?;
+            let (listed, starts) = all.split_at_mut(total);
+            for f in 0..faces.len() {
+                grid.for_cells_of(f, |c| {
+                    if let Some(s) = starts.get_mut(grid.index(c)) {
+                        *s += 1;
+                    }
+                });
             }
+            let mut sum = 0u32;
+            for s in starts.iter_mut() {
+                sum = sum.saturating_add(*s);
+                *s = sum;
+            }
+            for f in (0..faces.len()).rev() {
+                grid.for_cells_of(f, |c| {
+                    if let Some(s) = starts.get_mut(grid.index(c)) {
+                        *s = s.saturating_sub(1);
+                        if let Some(slot) = listed.get_mut(*s as usize) {
+                            *slot = f as u32;
+                        }
+                    }
+                });
+            }
+            grid.starts = starts;
+            grid.listed = listed;
+            return Ok(grid);
         }
-        grid.boxes = boxes;
         let entries = alloc.try_alloc_slice::<u64>(total, 0)?;
         let mut w = 0;
-        for (f, &face) in faces.iter().enumerate() {
-            grid.for_cells_of(face, |key| {
-                entries[w] = (key << 32) | f as u64;
+        for f in 0..faces.len() {
+            grid.for_cells_of(f, |c| {
+                entries[w] = (pack(c) << 32) | f as u64;
                 w += 1;
             });
         }
         entries.sort_unstable();
         grid.entries = entries;
         Ok(grid)
+    }
+
+    /// Cell `c`'s index in the dense layout (`(x dims[1] + y) dims[2] + z`).
+    fn index(&self, c: [u32; 3]) -> usize {
+        let [_, dy, dz] = self.dims.map(|d| d as usize);
+        (c[0] as usize * dy + c[1] as usize) * dz + c[2] as usize
+    }
+
+    /// Cell `c`'s identity in the grid's layout: its index dense, its key
+    /// sparse (both ascend in the order of the cells).
+    fn id(&self, c: [u32; 3]) -> u64 {
+        if self.starts.is_empty() {
+            pack(c)
+        } else {
+            self.index(c) as u64
+        }
+    }
+
+    /// Entries (face, cell) of the grid.
+    fn entry_count(&self) -> usize {
+        self.entries.len() + self.listed.len()
     }
 
     /// The cell coordinate of `v` along axis `k`, clamped to the grid.
@@ -165,21 +278,23 @@ impl<'a> FaceGrid<'a> {
     }
 
     /// The cells face `face`'s bounding box overlaps, as an inclusive range,
-    /// or `None` for a face left out.
-    fn cell_range(&self, face: [u32; 3]) -> Option<([u32; 3], [u32; 3])> {
-        let (a, b) = bbox(&corners(self.vertices, face)?);
-        Some(self.cells_of_box(a, b))
+    /// or `None` for a face left out (its box empty).
+    fn cell_range(&self, face: usize) -> Option<([u32; 3], [u32; 3])> {
+        self.boxes
+            .get(face)
+            .filter(|(lo, hi)| (0..3).all(|k| lo[k] <= hi[k]))
+            .map(|&(lo, hi)| self.cells_of_box(lo, hi))
     }
 
-    /// Calls `f` with the key of every cell face `face`'s bounding box overlaps.
-    fn for_cells_of(&self, face: [u32; 3], mut f: impl FnMut(u64)) {
+    /// Calls `f` with every cell face `face`'s bounding box overlaps.
+    fn for_cells_of(&self, face: usize, mut f: impl FnMut([u32; 3])) {
         let Some((c0, c1)) = self.cell_range(face) else {
             return;
         };
         for x in c0[0]..=c1[0] {
             for y in c0[1]..=c1[1] {
                 for z in c0[2]..=c1[2] {
-                    f(pack([x, y, z]));
+                    f([x, y, z]);
                 }
             }
         }
@@ -188,7 +303,7 @@ impl<'a> FaceGrid<'a> {
     /// Entries the current cell size gives (saturating).
     fn count_entries(&self) -> usize {
         let mut total = 0usize;
-        for &face in self.faces {
+        for face in 0..self.faces.len() {
             if let Some((c0, c1)) = self.cell_range(face) {
                 let cells = (0..3).fold(1usize, |n, k| {
                     n.saturating_mul((c1[k] - c0[k]) as usize + 1)
@@ -199,15 +314,33 @@ impl<'a> FaceGrid<'a> {
         total
     }
 
-    /// The faces entered in cell `c` (each at most once).
+    /// The faces entered in cell `c` (each at most once), ascending.
     pub fn cell(&self, c: [u32; 3]) -> impl Iterator<Item = u32> + 'a {
-        let key = pack(c);
-        let entries = self.entries;
-        let start = entries.partition_point(|&e| (e >> 32) < key);
-        entries[start..]
-            .iter()
-            .take_while(move |&&e| (e >> 32) == key)
-            .map(|&e| e as u32)
+        let run = self.run(c);
+        (0..run.len()).filter_map(move |i| run.get(i))
+    }
+
+    /// The faces of cell `c` (none outside the grid).
+    fn run(&self, c: [u32; 3]) -> Run<'a> {
+        if (0..3).any(|k| c[k] >= self.dims[k]) {
+            return Run::Faces(&[]);
+        }
+        if self.starts.is_empty() {
+            let key = pack(c);
+            let entries = self.entries;
+            let start = entries.partition_point(|&e| (e >> 32) < key);
+            let len = entries[start..]
+                .iter()
+                .take_while(|&&e| (e >> 32) == key)
+                .count();
+            return Run::Keys(&entries[start..start + len]);
+        }
+        let i = self.index(c);
+        let listed = match (self.starts.get(i), self.starts.get(i + 1)) {
+            (Some(&b), Some(&e)) => self.listed.get(b as usize..e as usize),
+            _ => None,
+        };
+        Run::Faces(listed.unwrap_or(&[]))
     }
 
     /// Grid dimensions.
@@ -227,7 +360,7 @@ impl<'a> FaceGrid<'a> {
     /// pair is reported in one cell only: the one holding the lowest corner of
     /// the two boxes' overlap. O(Σ over cells of its faces²).
     pub fn for_each_overlapping_pair(&self, f: impl FnMut(u32, u32)) {
-        self.pairs_in_cells(0..self.entries.len(), f);
+        self.pairs_in_cells(0..self.entry_count(), f);
     }
 
     /// The overlapping pairs that pass `test` (see
@@ -243,7 +376,7 @@ impl<'a> FaceGrid<'a> {
         test: impl Fn(u32, u32) -> bool + Sync,
         mut found: impl FnMut(u32, u32),
     ) {
-        let n = self.entries.len();
+        let n = self.entry_count();
         let counts = parallel::ranges(hooks, n, |items| {
             let mut count = 0u32;
             self.pairs_in_cells(items, |a, b| count += u32::from(test(a, b)));
@@ -263,43 +396,58 @@ impl<'a> FaceGrid<'a> {
     /// [`FaceGrid::for_each_overlapping_pair`] over the cells whose first entry
     /// is in `range` of the entries.
     fn pairs_in_cells(&self, range: Range<usize>, mut f: impl FnMut(u32, u32)) {
-        let boxed = |face: u32| {
-            let t = self.faces.get(face as usize)?;
-            Some(bbox(&corners(self.vertices, *t)?))
-        };
-        let key_at = |i: usize| self.entries[i] >> 32;
-        let mut i = range.start;
-        while i > 0 && i < range.end && key_at(i) == key_at(i - 1) {
-            i += 1;
+        if self.starts.is_empty() {
+            let key_at = |i: usize| self.entries[i] >> 32;
+            let mut i = range.start;
+            while i > 0 && i < range.end && key_at(i) == key_at(i - 1) {
+                i += 1;
+            }
+            while i < range.end {
+                let key = key_at(i);
+                let run = self.entries[i..]
+                    .iter()
+                    .take_while(|&&e| e >> 32 == key)
+                    .count();
+                self.pairs_in_run(key, Run::Keys(&self.entries[i..i + run]), &mut f);
+                i += run;
+            }
+            return;
         }
-        while i < range.end {
-            let key = key_at(i);
-            let run = self.entries[i..]
-                .iter()
-                .take_while(|&&e| e >> 32 == key)
-                .count();
-            let cell = &self.entries[i..i + run];
-            for (x, &ea) in cell.iter().enumerate() {
-                let a = ea as u32;
-                let Some((alo, ahi)) = boxed(a) else {
+        let cells = self.starts.len() - 1;
+        let mut c = self.starts[..cells].partition_point(|&s| (s as usize) < range.start);
+        while c < cells && (self.starts[c] as usize) < range.end {
+            let (b, e) = (self.starts[c] as usize, self.starts[c + 1] as usize);
+            if let Some(listed) = self.listed.get(b..e).filter(|l| !l.is_empty()) {
+                self.pairs_in_run(c as u64, Run::Faces(listed), &mut f);
+            }
+            c += 1;
+        }
+    }
+
+    /// The overlapping pairs of the faces `cell` of the cell `id` (see
+    /// [`FaceGrid::id`]) whose overlap's lowest corner lies in that cell.
+    fn pairs_in_run(&self, id: u64, cell: Run, f: &mut impl FnMut(u32, u32)) {
+        let boxed = |face: u32| {
+            let &(lo, hi) = self.boxes.get(face as usize)?;
+            (0..3).all(|k| lo[k] <= hi[k]).then_some((lo, hi))
+        };
+        for x in 0..cell.len() {
+            let Some((a, (alo, ahi))) = cell.get(x).and_then(|a| Some((a, boxed(a)?))) else {
+                continue;
+            };
+            for y in x + 1..cell.len() {
+                let Some((b, (blo, bhi))) = cell.get(y).and_then(|b| Some((b, boxed(b)?))) else {
                     continue;
                 };
-                for &eb in &cell[x + 1..] {
-                    let b = eb as u32;
-                    let Some((blo, bhi)) = boxed(b) else {
-                        continue;
-                    };
-                    if (0..3).any(|k| alo[k] > bhi[k] || blo[k] > ahi[k]) {
-                        continue;
-                    }
-                    let lo: V3 = core::array::from_fn(|k| alo[k].max(blo[k]));
-                    let (first, _) = self.cells_of_box(lo, lo);
-                    if pack(first) == key {
-                        f(a.min(b), a.max(b));
-                    }
+                if (0..3).any(|k| alo[k] > bhi[k] || blo[k] > ahi[k]) {
+                    continue;
+                }
+                let lo: V3 = core::array::from_fn(|k| alo[k].max(blo[k]));
+                let (first, _) = self.cells_of_box(lo, lo);
+                if self.id(first) == id {
+                    f(a.min(b), a.max(b));
                 }
             }
-            i += run;
         }
     }
 
@@ -315,7 +463,7 @@ impl<'a> FaceGrid<'a> {
     /// to search. The answer is the nearest face whatever the hint; among
     /// faces at exactly the same distance it may differ.
     pub fn nearest_from(&self, p: V3, hint: Option<u32>) -> Option<(u32, f32)> {
-        if self.entries.is_empty() || !p.iter().all(|v| v.is_finite()) {
+        if self.entry_count() == 0 || !p.iter().all(|v| v.is_finite()) {
             return None;
         }
         let mut best: Option<(u32, f32)> = None;
@@ -490,13 +638,106 @@ mod tests {
         (v, f)
     }
 
+    /// A wavy sheet of `m` by `m` squares, two faces each: a surface, whose
+    /// grid has fewer cells than entries.
+    fn sheet(m: usize) -> (Vec<V3>, Vec<[u32; 3]>) {
+        let at = |i: usize, j: usize| (i * (m + 1) + j) as u32;
+        let mut v = Vec::new();
+        for i in 0..=m {
+            for j in 0..=m {
+                let (x, y) = (i as f32 / m as f32, j as f32 / m as f32);
+                v.push([x, y, 0.05 * libm::sinf(7.0 * x) * libm::cosf(5.0 * y)]);
+            }
+        }
+        let mut f = Vec::new();
+        for i in 0..m {
+            for j in 0..m {
+                f.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+                f.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+            }
+        }
+        (v, f)
+    }
+
+    /// The layouts: the sheet is dense and the soup sparse unless forced.
+    #[test]
+    fn a_surface_takes_the_dense_layout_and_a_sparse_grid_the_sorted_one() {
+        let mut buf = vec![MaybeUninit::uninit(); 1 << 21];
+        let arena = Arena::new(&mut buf);
+        let (v, f) = sheet(40);
+        let dense = FaceGrid::try_new_in(&arena, &v, &f).unwrap();
+        assert!(!dense.starts.is_empty() && dense.entries.is_empty());
+        assert_eq!(
+            dense.starts.len(),
+            dense.dims.iter().product::<u32>() as usize + 1
+        );
+        assert!(dense.starts.len() <= dense.listed.len());
+        let sorted = FaceGrid::try_build_in(&arena, &v, &f, false).unwrap();
+        assert!(sorted.starts.is_empty() && !sorted.entries.is_empty());
+        assert_eq!(dense.entry_count(), sorted.entry_count());
+        let (v, f) = soup(3, 400);
+        let grid = FaceGrid::try_new_in(&arena, &v, &f).unwrap();
+        assert!(
+            grid.starts.is_empty(),
+            "the soup's grid has more cells than entries"
+        );
+    }
+
+    /// Both layouts list the same faces in every cell, in the same order, and
+    /// so give the same nearest faces and the same pairs in the same order.
+    #[test]
+    fn both_layouts_give_the_same_answers() {
+        let mut buf = vec![MaybeUninit::uninit(); 1 << 22];
+        let arena = Arena::new(&mut buf);
+        for (v, f) in [sheet(40), sheet(7), soup(3, 400)] {
+            let dense = FaceGrid::try_build_in(&arena, &v, &f, true).unwrap();
+            let sorted = FaceGrid::try_build_in(&arena, &v, &f, false).unwrap();
+            assert_eq!(dense.dims, sorted.dims);
+            let [dx, dy, dz] = dense.dims;
+            for c in
+                (0..dx).flat_map(|x| (0..dy).flat_map(move |y| (0..dz).map(move |z| [x, y, z])))
+            {
+                let (a, b): (Vec<u32>, Vec<u32>) =
+                    (dense.cell(c).collect(), sorted.cell(c).collect());
+                assert_eq!(a, b, "cell {c:?}");
+                assert!(a.windows(2).all(|w| w[0] < w[1]), "cell {c:?}: {a:?}");
+            }
+            assert_eq!(dense.cell([dx, 0, 0]).count(), 0);
+            let pairs = |g: &FaceGrid| {
+                let mut all = Vec::new();
+                g.for_each_overlapping_pair(|a, b| all.push((a, b)));
+                let mut some = Vec::new();
+                g.overlapping_pairs_where(
+                    &Backwards,
+                    |a, b| (a ^ b) % 5 == 0,
+                    |a, b| some.push((a, b)),
+                );
+                (all, some)
+            };
+            let (all, some) = pairs(&dense);
+            assert_eq!((&all, &some), (&pairs(&sorted).0, &pairs(&sorted).1));
+            assert!(all.len() > 50 && !some.is_empty(), "{} pairs", all.len());
+            let mut rng = Rng::new(11);
+            for _ in 0..2000 {
+                let p: V3 = core::array::from_fn(|_| (rng.unit_f64() as f32 * 2.0 - 0.5) * 1.5);
+                assert_eq!(dense.nearest(p), sorted.nearest(p), "point {p:?}");
+            }
+        }
+    }
+
     #[test]
     fn nearest_equals_a_scan_of_all_faces() {
-        let (v, f) = soup(3, 400);
+        for dense in [false, true] {
+            nearest_equals_a_scan(soup(3, 400), dense);
+            nearest_equals_a_scan(sheet(30), dense);
+        }
+    }
+
+    fn nearest_equals_a_scan((v, f): (Vec<V3>, Vec<[u32; 3]>), dense: bool) {
         let mut buf = vec![MaybeUninit::uninit(); 1 << 20];
         let arena = Arena::new(&mut buf);
-        let grid = FaceGrid::try_new_in(&arena, &v, &f).unwrap();
-        assert!(grid.entries.len() <= ENTRIES_PER_FACE * f.len());
+        let grid = FaceGrid::try_build_in(&arena, &v, &f, dense).unwrap();
+        assert!(grid.entry_count() <= ENTRIES_PER_FACE * f.len());
         let mut rng = Rng::new(9);
         for i in 0..2000 {
             // Points inside the grid, and some far outside it.
@@ -526,10 +767,16 @@ mod tests {
 
     #[test]
     fn overlapping_pairs_are_those_a_scan_of_all_pairs_finds_once_each() {
-        let (v, f) = soup(5, 300);
+        for dense in [false, true] {
+            overlapping_pairs_are_those_of_a_scan(soup(5, 300), dense);
+            overlapping_pairs_are_those_of_a_scan(sheet(12), dense);
+        }
+    }
+
+    fn overlapping_pairs_are_those_of_a_scan((v, f): (Vec<V3>, Vec<[u32; 3]>), dense: bool) {
         let mut buf = vec![MaybeUninit::uninit(); 1 << 20];
         let arena = Arena::new(&mut buf);
-        let grid = FaceGrid::try_new_in(&arena, &v, &f).unwrap();
+        let grid = FaceGrid::try_build_in(&arena, &v, &f, dense).unwrap();
         let mut got = Vec::new();
         grid.for_each_overlapping_pair(|a, b| got.push((a, b)));
         let boxes: Vec<(V3, V3)> = f.iter().map(|t| bbox(&t.map(|i| v[i as usize]))).collect();
