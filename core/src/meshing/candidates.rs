@@ -187,7 +187,10 @@ pub fn try_pieces_in<'a, 'b, A: Alloc<'b>>(
         let mut sets = UnionFind::try_new_in(s, m)?;
         for i in 0..labels.len() {
             let Some(a) = group(i as u32) else { continue };
-            sets.union_all(a, nb.of(i).iter().filter_map(|&q| group(q)));
+            // Most neighbours lie in the point's own cluster: no find for
+            // those (the sets, and so the roots, are the same).
+            let others = nb.of(i).iter().filter_map(|&q| group(q));
+            sets.union_all(a, others.filter(|&b| b != a));
         }
         for (x, &r) in piece.iter_mut().zip(rep) {
             *x = sets.find(r);
