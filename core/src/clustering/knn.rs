@@ -537,6 +537,48 @@ fn visit_ring(grid: &Grid, c: [u32; 3], r: i64, mut f: impl FnMut(usize)) {
     }
 }
 
+/// `order` = the points' indices by (cell of `grid`, index), `keys` its
+/// scratch (one per point); returns the occupied cells. With `direct` and a
+/// box of at most 2^32 cells, each point's cell index in the box (ascending
+/// with the packed key) and its index go into one word and the words are
+/// sorted; else the indices are sorted by two lookups of packed keys. The
+/// same order either way.
+fn sort_by_cell(
+    grid: &Grid,
+    points: &[V3],
+    keys: &mut [u64],
+    order: &mut [u32],
+    direct: bool,
+) -> usize {
+    let n = points.len().min(keys.len()).min(order.len());
+    let (keys, order) = (&mut keys[..n], &mut order[..n]);
+    let [_, dy, dz] = grid.dims.map(u64::from);
+    let boxed = grid
+        .dims
+        .iter()
+        .try_fold(1u64, |c, &d| c.checked_mul(u64::from(d)));
+    if direct && boxed.is_some_and(|c| c <= 1 << 32) && u32::try_from(n).is_ok() {
+        for (i, (k, p)) in keys.iter_mut().zip(points).enumerate() {
+            let [x, y, z] = grid.cell_of(*p).map(u64::from);
+            *k = ((x * dy + y) * dz + z) << 32 | i as u64;
+        }
+        keys.sort_unstable();
+        for (o, &k) in order.iter_mut().zip(keys.iter()) {
+            *o = k as u32;
+        }
+        return 1 + keys.windows(2).filter(|w| w[0] >> 32 != w[1] >> 32).count();
+    }
+    for (i, (k, p)) in keys.iter_mut().zip(points).enumerate() {
+        *k = pack(grid.cell_of(*p));
+        order[i] = i as u32;
+    }
+    order.sort_unstable_by(|&a, &b| (keys[a as usize], a).cmp(&(keys[b as usize], b)));
+    1 + order
+        .windows(2)
+        .filter(|w| keys[w[0] as usize] != keys[w[1] as usize])
+        .count()
+}
+
 fn build_grid<'s>(
     s: &'s crate::arena::Scratch<'_, '_>,
     points: &[V3],
@@ -577,15 +619,7 @@ fn build_grid<'s>(
             for a in 0..3 {
                 grid.dims[a] = ((ext[a] / h) as u32).saturating_add(1).min(1 << 21);
             }
-            for (i, p) in points.iter().enumerate() {
-                keys[i] = pack(grid.cell_of(*p));
-                order[i] = i as u32;
-            }
-            order.sort_unstable_by(|&a, &b| (keys[a as usize], a).cmp(&(keys[b as usize], b)));
-            cells = 1 + order
-                .windows(2)
-                .filter(|w| keys[w[0] as usize] != keys[w[1] as usize])
-                .count();
+            cells = sort_by_cell(&grid, points, keys, order, true);
             let ratio = target / (n as f32 / cells as f32);
             if attempt == 3 || (0.5..=2.0).contains(&ratio) {
                 break;
@@ -708,6 +742,45 @@ mod tests {
     use core::mem::MaybeUninit;
     use std::vec;
     use std::vec::Vec;
+
+    /// Sorting the points by cell in one word each gives the order of the
+    /// sort by two lookups, on grids of a few cells and of more than 2^32
+    /// (where only the lookups run), with points sharing cells.
+    #[test]
+    fn points_sorted_by_cell_in_one_word_come_in_the_order_of_the_lookups() {
+        let mut rng = Rng::new(17);
+        let cloud: Vec<V3> = (0..3000)
+            .map(|i| {
+                let c = if i % 3 == 0 { 40.0 } else { 0.0 };
+                core::array::from_fn(|_| c + (rng.unit_f64() as f32) * 2.0)
+            })
+            .collect();
+        for (h, dims, direct_runs) in [
+            (0.25, [169, 169, 169], true),
+            (0.5, [7, 5, 3], true),
+            (0.5, [1 << 21, 1 << 21, 2], false),
+        ] {
+            let grid = Grid {
+                lo: [0.0; 3],
+                h,
+                dims,
+                order: &[],
+                sorted: &[],
+                cell_keys: &[],
+                cell_start: &[],
+                columns: &[],
+            };
+            let (mut k1, mut o1) = (vec![0u64; cloud.len()], vec![0u32; cloud.len()]);
+            let (mut k2, mut o2) = (k1.clone(), o1.clone());
+            let c1 = sort_by_cell(&grid, &cloud, &mut k1, &mut o1, true);
+            let c2 = sort_by_cell(&grid, &cloud, &mut k2, &mut o2, false);
+            assert_eq!((c1, &o1), (c2, &o2), "h {h}");
+            // The word sort ran where the box fits 32 bits (its keys hold
+            // the point's index in the low half).
+            assert_eq!(k1.iter().all(|&k| (k as u32) < 3000), direct_runs, "h {h}");
+            assert!(c1 > 1 && c1 < cloud.len(), "{c1} cells");
+        }
+    }
 
     fn brute(points: &[V3], k: usize) -> Vec<u32> {
         let mut out = Vec::new();
