@@ -216,17 +216,26 @@ fn work(shared: &Shared, round: Round) {
 }
 
 /// A helper's life: wait for a round (actively for up to [`SPIN`], then
-/// asleep), work on it, and again, until the team is dropped.
+/// asleep), work on it, and again, until the team is dropped. Before its
+/// first round it sleeps at once: the team starts before the input is read,
+/// and a helper spinning beside the reader slowed the reading on this
+/// 2-core VM (the bunny's read stage on two threads: 5.2 ms, 3.7 ms with the
+/// helper asleep; `bench/notes.md`).
 fn help(shared: &Shared) {
     let mut done = 0u64;
     loop {
         let started = Instant::now();
+        let spin = if done == 0 {
+            Duration::ZERO
+        } else {
+            shared.spin
+        };
         let mut spins = 0u32;
         while shared.number.load(Ordering::Acquire) == done && !shared.stop.load(Ordering::Acquire)
         {
             std::hint::spin_loop();
             spins = spins.wrapping_add(1);
-            if spins % 1024 == 0 && started.elapsed() >= shared.spin {
+            if spins % 1024 == 0 && started.elapsed() >= spin {
                 let mut round = lock(&shared.round);
                 while round.number == done && !shared.stop.load(Ordering::Acquire) {
                     round = shared.wake.wait(round).unwrap_or_else(|e| e.into_inner());
