@@ -277,13 +277,18 @@ impl<'a> FaceGrid<'a> {
         }
     }
 
+    /// Face `face`'s bounding box, or `None` for a face left out (its box
+    /// empty).
+    fn face_box(&self, face: usize) -> Option<(V3, V3)> {
+        let &(lo, hi) = self.boxes.get(face)?;
+        (0..3).all(|k| lo[k] <= hi[k]).then_some((lo, hi))
+    }
+
     /// The cells face `face`'s bounding box overlaps, as an inclusive range,
-    /// or `None` for a face left out (its box empty).
+    /// or `None` for a face left out.
     fn cell_range(&self, face: usize) -> Option<([u32; 3], [u32; 3])> {
-        self.boxes
-            .get(face)
-            .filter(|(lo, hi)| (0..3).all(|k| lo[k] <= hi[k]))
-            .map(|&(lo, hi)| self.cells_of_box(lo, hi))
+        let (lo, hi) = self.face_box(face)?;
+        Some(self.cells_of_box(lo, hi))
     }
 
     /// Calls `f` with every cell face `face`'s bounding box overlaps.
@@ -427,10 +432,7 @@ impl<'a> FaceGrid<'a> {
     /// The overlapping pairs of the faces `cell` of the cell `id` (see
     /// [`FaceGrid::id`]) whose overlap's lowest corner lies in that cell.
     fn pairs_in_run(&self, id: u64, cell: Run, f: &mut impl FnMut(u32, u32)) {
-        let boxed = |face: u32| {
-            let &(lo, hi) = self.boxes.get(face as usize)?;
-            (0..3).all(|k| lo[k] <= hi[k]).then_some((lo, hi))
-        };
+        let boxed = |face: u32| self.face_box(face as usize);
         for x in 0..cell.len() {
             let Some((a, (alo, ahi))) = cell.get(x).and_then(|a| Some((a, boxed(a)?))) else {
                 continue;
