@@ -9,6 +9,13 @@
 
 use crate::arena::Alloc;
 use crate::error::Result;
+use crate::parallel::Task;
+use crate::progress::Progress;
+
+/// Most parts [`roots_of_links`] cuts its elements into (one a thread).
+const MAX_PARTS: usize = 8;
+/// Fewest elements a part of [`roots_of_links`]; fewer are joined as one.
+const MIN_PART: usize = 4096;
 
 /// Disjoint sets over `0..len()`, in a borrowed slice of parent indices.
 ///
@@ -97,9 +104,106 @@ impl<'a> UnionFind<'a> {
     }
 }
 
+/// Every element's root (its set's lowest element) once each `i` of
+/// `0..parent.len()` is joined with each `j` of `row(i)` for which
+/// `linked(i, j)` (indices out of range ignored), in `parent` (overwritten):
+/// what [`UnionFind::union_all`] of each `i` with its linked row, in order,
+/// then [`UnionFind::into_roots`] give. With two threads or more in `hooks`
+/// and at least 4,096 elements a thread, the elements are cut into
+/// contiguous parts, one a thread: each part's task joins the links within it
+/// in its own part of `parent`, then the calling thread joins the links
+/// between parts. The sets are the same whatever the cut, and so are their
+/// lowest elements. O(n + links) time, no memory but `parent`.
+pub fn roots_of_links<'a, 'r, R, L>(
+    hooks: &dyn Progress,
+    parent: &'a mut [u32],
+    row: R,
+    linked: L,
+) -> &'a mut [u32]
+where
+    R: Fn(usize) -> &'r [u32] + Sync,
+    L: Fn(usize, u32) -> bool + Sync,
+{
+    let n = parent.len();
+    let parts = hooks.threads().min(MAX_PARTS).min(n / MIN_PART);
+    let per = n.div_ceil(parts.max(1));
+    let part_of = |i: usize| {
+        let start = i / per * per;
+        start..(start + per).min(n)
+    };
+    if parts >= 2 {
+        let mut rest = &mut *parent;
+        let (row, linked) = (&row, &linked);
+        let mut jobs: [Part<R, L>; MAX_PARTS] = core::array::from_fn(|t| {
+            let start = (t * per).min(n);
+            let len = per.min(n - start);
+            let (part, tail) = core::mem::take(&mut rest).split_at_mut(len);
+            rest = tail;
+            Part {
+                row,
+                linked,
+                start,
+                parent: part,
+            }
+        });
+        let mut tasks = jobs.each_mut().map(|j| j as &mut dyn Task);
+        hooks.run(&mut tasks[..parts]);
+    } else {
+        UnionFind::new(&mut *parent);
+    }
+    // Every tree lies in one part now (all of them when there is one): join
+    // the links that leave their element's part.
+    let mut sets = UnionFind { parent };
+    for i in 0..n {
+        let own = if parts >= 2 { part_of(i) } else { 0..0 };
+        let mut across = row(i)
+            .iter()
+            .copied()
+            .filter(|&j| !own.contains(&(j as usize)) && linked(i, j))
+            .peekable();
+        if across.peek().is_some() {
+            sets.union_all(i as u32, across);
+        }
+    }
+    sets.into_roots()
+}
+
+/// One part of [`roots_of_links`]: the elements `start..start + parent.len()`
+/// joined by their links within the part, each left holding its root.
+struct Part<'p, R, L> {
+    row: &'p R,
+    linked: &'p L,
+    start: usize,
+    parent: &'p mut [u32],
+}
+
+impl<'p, 'r, R, L> Task for Part<'p, R, L>
+where
+    R: Fn(usize) -> &'r [u32] + Sync,
+    L: Fn(usize, u32) -> bool + Sync,
+{
+    fn run(&mut self) {
+        let (start, len) = (self.start, self.parent.len());
+        let mut sets = UnionFind::new(self.parent);
+        for i in start..start + len {
+            let within = (self.row)(i)
+                .iter()
+                .filter_map(|&j| (j as usize).checked_sub(start).map(|d| (j, d)))
+                .filter(|&(j, d)| d < len && (self.linked)(i, j))
+                .map(|(_, d)| d as u32);
+            sets.union_all((i - start) as u32, within);
+        }
+        // Local roots are the parts' lowest elements, so global ones too.
+        for r in sets.into_roots() {
+            *r += start as u32;
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::progress::{Flow, Stage};
 
     #[test]
     fn roots_are_the_lowest_element_whatever_the_union_order() {
@@ -147,6 +251,78 @@ mod tests {
             }
             assert_eq!(pairs.into_roots(), all.into_roots());
         }
+    }
+
+    /// Claims `.0` threads and runs the tasks last first.
+    struct Threads(usize);
+
+    impl Progress for Threads {
+        fn report(&mut self, _: Stage, _: u64, _: u64) -> Flow {
+            Flow::Continue
+        }
+
+        fn run(&self, tasks: &mut [&mut dyn Task]) {
+            tasks.iter_mut().rev().for_each(|t| t.run());
+        }
+
+        fn threads(&self) -> usize {
+            self.0
+        }
+    }
+
+    /// Cut into parts or not, `roots_of_links` gives the roots of `union_all`
+    /// a row at a time: on graphs of mostly near links (most inside a part)
+    /// with far ones and out-of-range ones among them, a predicate dropping
+    /// some, and a chain that only links between parts join into one set.
+    #[test]
+    fn roots_of_links_are_those_of_joining_one_row_at_a_time() {
+        let mut x = 7u64;
+        let mut next = |n: u64| {
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (x >> 33) % n
+        };
+        for (n, k) in [(10usize, 3usize), (9000, 2), (20_000, 3), (33_333, 1)] {
+            let rows: std::vec::Vec<u32> = (0..n * k)
+                .map(|e| match next(20) {
+                    0 => next(n as u64 + 5) as u32,
+                    1 => ((e / k + n / 3) % n) as u32,
+                    _ => ((e / k) as u64 + 1 + next(3)) as u32,
+                })
+                .collect();
+            let row = |i: usize| &rows[i * k..(i + 1) * k];
+            let linked = |i: usize, j: u32| (i as u32 ^ j) % 7 != 3;
+            let mut want = std::vec![0u32; n];
+            let mut sets = UnionFind::new(&mut want);
+            for i in 0..n {
+                sets.union_all(i as u32, row(i).iter().copied().filter(|&j| linked(i, j)));
+            }
+            let want = sets.into_roots();
+            let sets_count = want
+                .iter()
+                .enumerate()
+                .filter(|&(i, &r)| r == i as u32)
+                .count();
+            assert!(sets_count > 1 && sets_count < n, "n {n}: {sets_count} sets");
+            for threads in [1, 2, 3, 8] {
+                let mut got = std::vec![5u32; n];
+                let got = roots_of_links(&Threads(threads), &mut got, row, linked);
+                assert_eq!(got, &*want, "n {n}, {threads} threads");
+            }
+        }
+        // A chain whose links all run from one part to the next.
+        let n = 4 * MIN_PART;
+        let across: std::vec::Vec<u32> = (0..n as u32)
+            .map(|i| (i + MIN_PART as u32) % n as u32)
+            .collect();
+        let mut got = std::vec![0u32; n];
+        let roots = roots_of_links(&Threads(4), &mut got, |i| &across[i..i + 1], |_, _| true);
+        let mut want = std::vec![0u32; n];
+        for (i, w) in want.iter_mut().enumerate() {
+            *w = (i % MIN_PART) as u32;
+        }
+        assert_eq!(roots, &*want);
     }
 
     #[test]

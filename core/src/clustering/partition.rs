@@ -40,7 +40,7 @@ use crate::parallel;
 use crate::params::Params;
 use crate::progress::{tick, Progress, Stage};
 use crate::rng::Rng;
-use crate::union_find::UnionFind;
+use crate::union_find;
 use crate::validate::Bounds;
 
 /// Label of a point not reached yet.
@@ -566,7 +566,7 @@ pub fn try_cluster_state_in<'a>(
     // The components (one union-find) give the least cluster count and a
     // seed in each.
     let (components, wanted, cap, generators, seeds) = arena.scratch(|s| {
-        let (root, components) = components(s, nb)?;
+        let (root, components) = components(s, nb, &*progress)?;
         let wanted = (params.clusters as usize).min(n).max(components as usize);
         let cap = (params.cluster_cap() as usize).min(n).max(wanted);
         let limit = (params.cluster_limit() as usize).min(n).max(cap);
@@ -862,14 +862,16 @@ fn relative(err2: f32, diag: f32) -> f32 {
 }
 
 /// Component root of every point (the smallest index of its component) by
-/// union-find over the k-NN edges, in scratch. Returns the roots and their count.
-fn components<'s>(s: &'s Scratch, nb: &Neighbours) -> Result<(&'s mut [u32], u32)> {
+/// union-find over the k-NN edges, in scratch, in parallel tasks of `hooks`
+/// ([`union_find::roots_of_links`]). Returns the roots and their count.
+fn components<'s>(
+    s: &'s Scratch,
+    nb: &Neighbours,
+    hooks: &dyn Progress,
+) -> Result<(&'s mut [u32], u32)> {
     let n = nb.len();
-    let mut sets = UnionFind::try_new_in(s, n)?;
-    for i in 0..n {
-        sets.union_all(i as u32, nb.of(i).iter().copied());
-    }
-    let roots = sets.into_roots();
+    let parent = s.try_alloc_slice::<u32>(n, 0)?;
+    let roots = union_find::roots_of_links(hooks, parent, |i| nb.of(i), |_, _| true);
     let count = roots
         .iter()
         .enumerate()

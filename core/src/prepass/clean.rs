@@ -38,7 +38,7 @@ use crate::math::{dist2, V3};
 use crate::parallel;
 use crate::params::Params;
 use crate::progress::{tick, Progress, Stage};
-use crate::union_find::UnionFind;
+use crate::union_find;
 use crate::validate;
 
 /// Longest neighbour link inside one piece, in average spacings (see the module
@@ -187,6 +187,7 @@ pub fn clean_with_rows(
                 params.min_fragment,
                 keep,
                 &mut stats,
+                &*progress,
             )?;
         }
         Ok(())
@@ -225,7 +226,8 @@ fn mean_and_deviation(values: impl Iterator<Item = f32> + Clone) -> (f64, f64) {
     (mu, libm::sqrt(var))
 }
 
-/// Pieces of the kept points (k-NN links of squared length at most `link2`);
+/// Pieces of the kept points (k-NN links of squared length at most `link2`,
+/// joined in parallel tasks of `hooks`: [`union_find::roots_of_links`]);
 /// clears `keep` on the points of pieces smaller than `min` except the largest.
 #[allow(clippy::too_many_arguments)]
 fn drop_fragments(
@@ -237,20 +239,19 @@ fn drop_fragments(
     min: u32,
     keep: &mut [bool],
     stats: &mut CleanStats,
+    hooks: &dyn Progress,
 ) -> Result<()> {
     let n = points.len();
-    let mut pieces = UnionFind::try_new_in(s, n)?;
-    for (i, row) in knn.chunks_exact(k).enumerate() {
-        if !keep[i] {
-            continue;
-        }
-        let linked = row.iter().copied().filter(|&j| {
+    let keep_now = &*keep;
+    let root = union_find::roots_of_links(
+        hooks,
+        s.try_alloc_slice::<u32>(n, 0)?,
+        |i| knn.get(i * k..(i + 1) * k).unwrap_or(&[]),
+        |i, j| {
             let q = points.get(j as usize);
-            q.is_some_and(|&q| keep[j as usize] && dist2(points[i], q) <= link2)
-        });
-        pieces.union_all(i as u32, linked);
-    }
-    let root = pieces.into_roots();
+            keep_now[i] && q.is_some_and(|&q| keep_now[j as usize] && dist2(points[i], q) <= link2)
+        },
+    );
     let size = s.try_alloc_slice::<u32>(n, 0)?;
     for i in 0..n {
         if keep[i] {
