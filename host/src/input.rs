@@ -276,39 +276,77 @@ impl Prepared {
         keys.sort_unstable();
         let order: Vec<u32> = keys.iter().map(|&k| k as u32).collect();
         drop(keys);
-        permute(&mut self.points, &order);
-        if let Some(normals) = self.normals.as_mut() {
-            permute(normals, &order);
+        let mut points = Held(&mut self.points[..], None);
+        let mut original = Held(&mut self.original[..], None);
+        let mut arrays: Vec<&mut dyn Slots> = vec![&mut points, &mut original];
+        let mut normals = self.normals.as_deref_mut().map(|n| Held(n, None));
+        let mut colors = self.colors.as_deref_mut().map(|c| Held(c, None));
+        if let Some(n) = normals.as_mut() {
+            arrays.push(n);
         }
-        if let Some(colors) = self.colors.as_mut() {
-            permute(colors, &order);
+        if let Some(c) = colors.as_mut() {
+            arrays.push(c);
         }
-        permute(&mut self.original, &order);
+        permute(&mut arrays, &order);
         self.order = Some(order);
         self
     }
 }
 
-/// `v[i] = v[order[i]]` for every `i` at once, in place (cycle by cycle, one
-/// bit of scratch a slot), so a large cloud is never held twice. `order` is a
-/// permutation of `0..v.len()`.
-fn permute<T: Copy>(v: &mut [T], order: &[u32]) {
-    let mut done = vec![0u64; v.len().div_ceil(64)];
-    for start in 0..v.len() {
+/// `v[i] = v[order[i]]` for every `i` at once, for every array `v` of
+/// `arrays` (all of one length), in place (cycle by cycle, one bit of scratch a
+/// slot), so a large cloud is never held twice. `order` is a permutation of
+/// `0..len`. The cycles are walked once for all the arrays: each step reads
+/// `order` where the step before pointed, a load that waits for the last one,
+/// so walking them once an array took several times as long (a million points
+/// in random order: `bench/notes.md`).
+fn permute(arrays: &mut [&mut dyn Slots], order: &[u32]) {
+    let len = order.len();
+    let mut done = vec![0u64; len.div_ceil(64)];
+    for start in 0..len {
         if done[start / 64] >> (start % 64) & 1 != 0 {
             continue;
         }
-        let first = v[start];
+        arrays.iter_mut().for_each(|a| a.hold(start));
         let mut i = start;
         loop {
             done[i / 64] |= 1 << (i % 64);
             let from = order[i] as usize;
             if from == start {
-                v[i] = first;
+                arrays.iter_mut().for_each(|a| a.put(i));
                 break;
             }
-            v[i] = v[from];
+            arrays.iter_mut().for_each(|a| a.copy(i, from));
             i = from;
+        }
+    }
+}
+
+/// An array [`permute`] moves the elements of.
+trait Slots {
+    /// Keep element `i` aside.
+    fn hold(&mut self, i: usize);
+    /// Element `from` into slot `to`.
+    fn copy(&mut self, to: usize, from: usize);
+    /// The element kept aside into slot `i`.
+    fn put(&mut self, i: usize);
+}
+
+/// A slice and the element [`Slots::hold`] kept aside.
+struct Held<'a, T>(&'a mut [T], Option<T>);
+
+impl<T: Copy> Slots for Held<'_, T> {
+    fn hold(&mut self, i: usize) {
+        self.1 = Some(self.0[i]);
+    }
+
+    fn copy(&mut self, to: usize, from: usize) {
+        self.0[to] = self.0[from];
+    }
+
+    fn put(&mut self, i: usize) {
+        if let Some(v) = self.1.take() {
+            self.0[i] = v;
         }
     }
 }
@@ -401,9 +439,15 @@ mod tests {
         // A permutation with cycles of several lengths and fixed points.
         let order: Vec<u32> = vec![3, 0, 1, 2, 4, 6, 5, 9, 7, 8];
         let mut v: Vec<u32> = (100..110).collect();
+        let mut w: Vec<[f64; 3]> = (0..10).map(|i| [i as f64, -(i as f64), 0.5]).collect();
         let want: Vec<u32> = order.iter().map(|&i| v[i as usize]).collect();
-        permute(&mut v, &order);
+        let want_w: Vec<[f64; 3]> = order.iter().map(|&i| w[i as usize]).collect();
+        permute(
+            &mut [&mut Held(&mut v, None), &mut Held(&mut w, None)],
+            &order,
+        );
         assert_eq!(v, want);
+        assert_eq!(w, want_w);
     }
 
     #[test]
