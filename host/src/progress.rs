@@ -64,6 +64,19 @@ impl StageClock {
         out
     }
 
+    /// [`StageClock::time`] for work that may run tasks on the clock's
+    /// threads: `f` is given a function that runs them.
+    pub fn time_with_tasks<T>(
+        &mut self,
+        name: &'static str,
+        f: impl FnOnce(&dyn Fn(&mut [&mut dyn Task])) -> T,
+    ) -> T {
+        let team = self.team.take();
+        let out = self.time(name, || f(&|tasks| run_tasks(team.as_ref(), tasks)));
+        self.team = team;
+        out
+    }
+
     /// Time since the clock was made.
     pub fn total(&self) -> Duration {
         self.started.elapsed()

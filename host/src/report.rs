@@ -12,7 +12,7 @@
 //! reports against it. Numbers that are not finite are written as `null`.
 
 use crate::args::{InputArgs, MemoryArgs};
-use crate::eval::{check_solid, Solid, Topology, Validity};
+use crate::eval::{check_solid, check_solid_with, Solid, Topology, Validity};
 use crate::input::{Prepared, Source, SAMPLE_SEED};
 use crate::io::write::mesh::f32_step;
 use crate::io::{is_stdio, stage_to, Coords, MeshLayout, Precision, Staged};
@@ -20,7 +20,7 @@ use crate::progress::{StageClock, Timings};
 use crate::stdout;
 use serde::Serialize;
 use std::path::Path;
-use vsaqem_core::{CleanStats, ClusterStats, Params, Partition};
+use vsaqem_core::{CleanStats, ClusterStats, Params, Partition, Task};
 
 /// The version of the reports' JSON layout (`schema_version`): raised when a
 /// field is renamed, removed or changes meaning; adding a field keeps it.
@@ -681,7 +681,20 @@ impl MeshCheck {
     /// Cost: that of `crate::eval::check_solid`, O(F log F) and the
     /// self-intersection test.
     pub fn new(vertices: &[[f64; 3]], triangles: &[[u32; 3]]) -> Self {
-        let solid = check_solid(vertices, triangles);
+        Self::from_solid(check_solid(vertices, triangles))
+    }
+
+    /// [`MeshCheck::new`], its self-intersection test and topology handed to
+    /// `run` as two tasks ([`check_solid_with`]).
+    pub fn new_with(
+        vertices: &[[f64; 3]],
+        triangles: &[[u32; 3]],
+        run: &dyn Fn(&mut [&mut dyn Task]),
+    ) -> Self {
+        Self::from_solid(check_solid_with(vertices, triangles, run))
+    }
+
+    fn from_solid(solid: Solid) -> Self {
         let Solid { topology: t, .. } = &solid;
         MeshCheck {
             watertight: t.faces > 0 && t.boundary_edges == 0 && t.non_manifold_edges == 0,
@@ -1034,6 +1047,41 @@ mod tests {
         assert_eq!(json["coordinates"], "f32");
         assert_eq!(json["precision"], "f32");
         assert_eq!(json["origin"], serde_json::Value::Null);
+    }
+
+    /// The check with its two tasks run last first, on two threads, or not
+    /// at all by the runner is the check run one task after another: on two
+    /// tetrahedra through each other (crossing faces) and an open one.
+    #[test]
+    fn the_check_in_tasks_is_the_check_in_turn() {
+        let tet = |o: [f64; 3]| {
+            [
+                [0.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [0.0, 0.0, 1.0],
+            ]
+            .map(|p| [p[0] + o[0], p[1] + o[1], p[2] + o[2]])
+        };
+        let v: Vec<[f64; 3]> = [tet([0.0; 3]), tet([0.2, 0.2, 0.2]), tet([5.0, 0.0, 0.0])].concat();
+        let faces = |b: u32| [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]].map(|f| f.map(|i| i + b));
+        let f: Vec<[u32; 3]> = [&faces(0)[..], &faces(4)[..], &faces(8)[..3]].concat();
+        let want = MeshCheck::new(&v, &f);
+        assert!(want.validity.self_intersecting_pairs > 0, "{want:?}");
+        assert_eq!(want.topology.boundary_edges, 3);
+        let backwards = |tasks: &mut [&mut dyn Task]| tasks.iter_mut().rev().for_each(|t| t.run());
+        let threads = |tasks: &mut [&mut dyn Task]| {
+            std::thread::scope(|s| {
+                for t in tasks.iter_mut() {
+                    s.spawn(move || t.run());
+                }
+            })
+        };
+        let none = |_: &mut [&mut dyn Task]| {};
+        for run in [&backwards as &dyn Fn(&mut [&mut dyn Task]), &threads, &none] {
+            let got = MeshCheck::new_with(&v, &f, run);
+            assert_eq!(format!("{got:?}"), format!("{want:?}"));
+        }
     }
 
     #[test]

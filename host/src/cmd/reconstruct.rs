@@ -361,7 +361,7 @@ pub fn run(cmd: &Cmd) -> Result<(), String> {
     );
     // The check is of the mesh as the file holds it, not of a more precise one.
     let stored: Vec<[f64; 3]> = vertices.iter().map(|&p| layout.stored(p)).collect();
-    let check = clock.time("check", || MeshCheck::new(&stored, triangles));
+    let check = clock.time_with_tasks("check", |run| MeshCheck::new_with(&stored, triangles, run));
     drop(stored);
     let allow = "--allow-empty writes it";
     if let Some(why) = made.refuse_empty(&check, cmd.allow_empty, "; nothing written", allow)? {

@@ -40,6 +40,7 @@ use quality::quality;
 use serde::Serialize;
 use topology::topology;
 use validity::validity;
+use vsaqem_core::Task;
 
 /// Surface samples of the mesh -> points direction unless told otherwise.
 pub const DEFAULT_SAMPLES: usize = 100_000;
@@ -296,20 +297,60 @@ fn valid_solid(t: &Topology, v: &Validity, genus: Option<u64>) -> bool {
     sound(t, v) && t.is_closed_manifold() && genus.is_none_or(|g| g == v.handles())
 }
 
+/// A task that calls `f` and keeps what it returns.
+struct Job<F, R> {
+    f: F,
+    out: Option<R>,
+}
+
+impl<F: Fn() -> R, R> Job<F, R> {
+    fn new(f: F) -> Self {
+        Job { f, out: None }
+    }
+
+    /// What `f` returned when run, or returns now.
+    fn finish(self) -> R {
+        let Job { f, out } = self;
+        out.unwrap_or_else(f)
+    }
+}
+
+impl<F: Fn() -> R + Send, R: Send> Task for Job<F, R> {
+    fn run(&mut self) {
+        self.out = Some((self.f)());
+    }
+}
+
 /// The topology and validity checks of [`evaluate`] alone, for a mesh without
 /// its point cloud (the mesh a run writes). Faces with an index out of range
 /// are counted in [`Topology::invalid_faces`] and left out of the rest.
 /// O(F log F) plus the self-intersection test: each face against the faces
 /// whose bounding boxes overlap its own.
 pub fn check_solid(vertices: &[[f64; 3]], triangles: &[[u32; 3]]) -> Solid {
+    check_solid_with(vertices, triangles, &|tasks| {
+        tasks.iter_mut().for_each(|t| t.run())
+    })
+}
+
+/// [`check_solid`], with the self-intersection test in one task and the
+/// topology in another, both handed to `run` at once (which may run them on
+/// two threads; the result is the same).
+pub fn check_solid_with(
+    vertices: &[[f64; 3]],
+    triangles: &[[u32; 3]],
+    run: &dyn Fn(&mut [&mut dyn Task]),
+) -> Solid {
     let nv = vertices.len();
     let valid: Vec<[u32; 3]> = triangles
         .iter()
         .copied()
         .filter(|t| t.iter().all(|&i| (i as usize) < nv))
         .collect();
-    let surface = topology(vertices, &valid);
-    let validity = validity(vertices, &valid, &surface);
+    let mut crossings = Job::new(|| self_intersecting_pairs(vertices, &valid));
+    let mut surface = Job::new(|| topology(vertices, &valid));
+    run(&mut [&mut crossings, &mut surface]);
+    let (crossings, surface) = (crossings.finish(), surface.finish());
+    let validity = validity(vertices, &valid, &surface, crossings);
     let mut topology = surface.topology;
     topology.faces = triangles.len();
     topology.invalid_faces = triangles.len() - valid.len();

@@ -1,13 +1,19 @@
 //! Whether the mesh is a valid solid, beyond its combinatorics: faces that cross or
 //! touch, vertices split in place, folds, bubbles, and the genus of each closed part.
 
-use super::intersect::self_intersecting_pairs;
+use super::intersect::Crossings;
 use super::topology::Surface;
 use super::{Validity, BUBBLE_FACES, BUBBLE_RATIO};
 
 /// The validity checks of `faces` (indices all `< vertices.len()`), given their
-/// [`Surface`]. O(F log F) plus the self-intersection test (see `intersect`).
-pub(super) fn validity(vertices: &[[f64; 3]], faces: &[[u32; 3]], surface: &Surface) -> Validity {
+/// [`Surface`] and their self-intersection test's result (see `intersect`).
+/// O(F log F).
+pub(super) fn validity(
+    vertices: &[[f64; 3]],
+    faces: &[[u32; 3]],
+    surface: &Surface,
+    crossings: Crossings,
+) -> Validity {
     let largest = surface
         .components
         .iter()
@@ -24,7 +30,6 @@ pub(super) fn validity(vertices: &[[f64; 3]], faces: &[[u32; 3]], surface: &Surf
         .collect();
     let mut by_size: Vec<_> = surface.components.iter().collect();
     by_size.sort_by_key(|c| std::cmp::Reverse(c.faces));
-    let crossings = self_intersecting_pairs(vertices, faces);
     Validity {
         self_intersecting_pairs: crossings.pairs,
         self_intersection_stopped: !crossings.complete,
