@@ -32,6 +32,7 @@ mod topology;
 mod validity;
 
 use crate::geom::{cross, dot, sub};
+use crate::progress::run_tasks;
 use distance::{diagonal, mesh_to_point_distances, point_to_mesh_distances, stats};
 pub use distance::{dist2_point_triangle, sample_surface};
 pub use intersect::self_intersecting_pairs;
@@ -327,9 +328,7 @@ impl<F: Fn() -> R + Send, R: Send> Task for Job<F, R> {
 /// O(F log F) plus the self-intersection test: each face against the faces
 /// whose bounding boxes overlap its own.
 pub fn check_solid(vertices: &[[f64; 3]], triangles: &[[u32; 3]]) -> Solid {
-    check_solid_with(vertices, triangles, &|tasks| {
-        tasks.iter_mut().for_each(|t| t.run())
-    })
+    check_solid_with(vertices, triangles, &|tasks| run_tasks(None, tasks))
 }
 
 /// [`check_solid`], with the self-intersection test in one task and the
