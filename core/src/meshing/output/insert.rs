@@ -152,34 +152,51 @@ pub(super) fn split_at(
         halves[2 * count + 1] = [v, q, r];
         count += 1;
     }
-    let edge_ok = count <= 2
-        && (0..count).all(|i| sound(&halves[2 * i..2 * i + 2], faces[on_edge[i]]))
-        && untangled(
-            &faces[..nf],
-            &on_edge[..count],
-            &halves[..2 * count],
-            positions,
-        )
-        && joins(&halves[..2 * count]);
+    let edge_ok = || {
+        count <= 2
+            && (0..count).all(|i| sound(&halves[2 * i..2 * i + 2], faces[on_edge[i]]))
+            && untangled(
+                &faces[..nf],
+                &on_edge[..count],
+                &halves[..2 * count],
+                positions,
+            )
+            && joins(&halves[..2 * count])
+    };
     let face_ok = || {
         sound(&in_face, faces[f])
             && untangled(&faces[..nf], &[f], &in_face, positions)
             && joins(&in_face)
     };
+    // The edge split when the point is near the edge, else the face split,
+    // each the other's fallback; each test (an O(faces) scan) runs at most once.
+    let on_edge_split = if bary[k] < EDGE_BARYCENTRIC {
+        if edge_ok() {
+            true
+        } else if face_ok() {
+            false
+        } else {
+            return None;
+        }
+    } else if face_ok() {
+        false
+    } else if edge_ok() {
+        true
+    } else {
+        return None;
+    };
     let mut nf = nf;
-    if edge_ok && (bary[k] < EDGE_BARYCENTRIC || !face_ok()) {
+    if on_edge_split {
         for i in 0..count {
             faces[on_edge[i]] = halves[2 * i];
             faces[nf] = halves[2 * i + 1];
             nf += 1;
         }
-    } else if face_ok() {
+    } else {
         faces[f] = in_face[0];
         faces[nf] = in_face[1];
         faces[nf + 1] = in_face[2];
         nf += 2;
-    } else {
-        return None;
     }
     Some(nf)
 }

@@ -491,11 +491,12 @@ pub(super) fn untangled(
             nhi[k] = nhi[k].max(p[k]);
         }
     }
+    // An axis at a time, so most faces are passed over after one coordinate
+    // of each corner.
     let near = |f: &[u32; 3]| {
-        let t = f.map(pos);
         (0..3).all(|k| {
-            let lo = t[0][k].min(t[1][k]).min(t[2][k]);
-            let hi = t[0][k].max(t[1][k]).max(t[2][k]);
+            let [a, b, c] = f.map(|c| pos(c)[k]);
+            let (lo, hi) = (a.min(b).min(c), a.max(b).max(c));
             !(lo > nhi[k] || nlo[k] > hi)
         })
     };
@@ -523,7 +524,7 @@ pub(super) fn untangled(
     let others = faces
         .iter()
         .enumerate()
-        .filter(|&(h, f)| !replaced.contains(&h) && near(f));
+        .filter(|&(h, f)| near(f) && !replaced.contains(&h));
     for (_, &b) in others {
         if (0..new.len()).any(|i| clash(i, b)) {
             return false;
