@@ -110,6 +110,51 @@ impl Progress for Backwards {
     }
 }
 
+/// A [`Progress`] for tests that claims `threads` threads but runs the tasks
+/// one after another on the calling thread, last first when `backwards`: a
+/// stage takes its many-thread ways, and a result that depends on the order of
+/// the tasks shows. Counts the rounds of exactly `threads` tasks.
+#[cfg(test)]
+pub(crate) struct Claimed {
+    pub threads: usize,
+    pub backwards: bool,
+    pub full_rounds: core::cell::Cell<u32>,
+}
+
+#[cfg(test)]
+impl Claimed {
+    /// `threads` claimed, the tasks run last first.
+    pub fn backwards(threads: usize) -> Self {
+        Claimed {
+            threads,
+            backwards: true,
+            full_rounds: core::cell::Cell::new(0),
+        }
+    }
+}
+
+#[cfg(test)]
+impl Progress for Claimed {
+    fn report(&mut self, _: Stage, _: u64, _: u64) -> Flow {
+        Flow::Continue
+    }
+
+    fn run(&self, tasks: &mut [&mut dyn Task]) {
+        if tasks.len() == self.threads {
+            self.full_rounds.set(self.full_rounds.get() + 1);
+        }
+        if self.backwards {
+            tasks.iter_mut().rev().for_each(|t| t.run());
+        } else {
+            tasks.iter_mut().for_each(|t| t.run());
+        }
+    }
+
+    fn threads(&self) -> usize {
+        self.threads
+    }
+}
+
 /// Forward a report, turning a cancel request into an error.
 pub(crate) fn tick(p: &mut dyn Progress, stage: Stage, done: u64, total: u64) -> crate::Result<()> {
     match p.report(stage, done, total) {

@@ -203,7 +203,7 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::progress::{Flow, Stage};
+    use crate::progress::Claimed;
 
     #[test]
     fn roots_are_the_lowest_element_whatever_the_union_order() {
@@ -253,23 +253,6 @@ mod tests {
         }
     }
 
-    /// Claims `.0` threads and runs the tasks last first.
-    struct Threads(usize);
-
-    impl Progress for Threads {
-        fn report(&mut self, _: Stage, _: u64, _: u64) -> Flow {
-            Flow::Continue
-        }
-
-        fn run(&self, tasks: &mut [&mut dyn Task]) {
-            tasks.iter_mut().rev().for_each(|t| t.run());
-        }
-
-        fn threads(&self) -> usize {
-            self.0
-        }
-    }
-
     /// Cut into parts or not, `roots_of_links` gives the roots of `union_all`
     /// a row at a time: on graphs of mostly near links (most inside a part)
     /// with far ones and out-of-range ones among them, a predicate dropping
@@ -307,7 +290,7 @@ mod tests {
             );
             for threads in [1, 2, 3, 8] {
                 let mut got = std::vec![5u32; n];
-                let got = roots_of_links(&Threads(threads), &mut got, row, linked);
+                let got = roots_of_links(&Claimed::backwards(threads), &mut got, row, linked);
                 assert_eq!(got, &*want, "n {n}, {threads} threads");
             }
         }
@@ -317,7 +300,12 @@ mod tests {
             .map(|i| (i + MIN_PART as u32) % n as u32)
             .collect();
         let mut got = std::vec![0u32; n];
-        let roots = roots_of_links(&Threads(4), &mut got, |i| &across[i..i + 1], |_, _| true);
+        let roots = roots_of_links(
+            &Claimed::backwards(4),
+            &mut got,
+            |i| &across[i..i + 1],
+            |_, _| true,
+        );
         let mut want = std::vec![0u32; n];
         for (i, w) in want.iter_mut().enumerate() {
             *w = (i % MIN_PART) as u32;

@@ -769,35 +769,13 @@ mod tests {
     use crate::clustering::quadric::try_planes_in;
     use crate::clustering::sweep::Start;
     use crate::params::Params;
-    use crate::progress::{Flow, Silent, Stage};
+    use crate::progress::{Claimed, Silent};
     use crate::rng::Rng;
     use crate::sample::{fill, Shape};
-    use core::cell::Cell;
     use core::mem::MaybeUninit;
     use std::format;
     use std::vec;
     use std::vec::Vec;
-
-    /// Claims `.0` threads, runs the tasks last first, and counts the runs
-    /// of that many tasks (the slabs and their check).
-    struct Threads(usize, Cell<u32>);
-
-    impl Progress for Threads {
-        fn report(&mut self, _: Stage, _: u64, _: u64) -> Flow {
-            Flow::Continue
-        }
-
-        fn run(&self, tasks: &mut [&mut dyn Task]) {
-            if tasks.len() == self.0 {
-                self.1.set(self.1.get() + 1);
-            }
-            tasks.iter_mut().rev().for_each(|t| t.run());
-        }
-
-        fn threads(&self) -> usize {
-            self.0
-        }
-    }
 
     /// Region growing in 2, 3 and 4 slabs gives the labels and the energy of
     /// growing as one, fresh and warm: on a regular grid whose seeds sit on a lattice
@@ -882,14 +860,14 @@ mod tests {
                 );
                 for threads in [2, 3, 4] {
                     let mut two = last.clone();
-                    let hooks = Threads(threads, Cell::new(0));
+                    let hooks = Claimed::backwards(threads);
                     let e2 = arena
                         .scratch(|s| {
                             partition(s, &ctx, generators, seeds, &mut two, start, None, &hooks)
                         })
                         .unwrap();
                     let at = format!("cloud {c}, {start:?}, {threads} slabs");
-                    assert_eq!(hooks.1.get(), 2, "{at}: the slabs did not run");
+                    assert_eq!(hooks.full_rounds.get(), 2, "{at}: the slabs did not run");
                     let differ = one.iter().zip(&two).filter(|(a, b)| a != b).count();
                     assert_eq!(differ, 0, "{at}: labels differ");
                     assert_eq!(e1.to_bits(), e2.to_bits(), "{at}: energy");

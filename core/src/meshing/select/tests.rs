@@ -4,7 +4,7 @@
 extern crate std;
 use super::*;
 use crate::arena::Arena;
-use crate::progress::{Backwards, Silent};
+use crate::progress::{Backwards, Claimed, Silent};
 use core::mem::MaybeUninit;
 use std::vec;
 use std::vec::Vec;
@@ -758,30 +758,6 @@ fn a_sweep_by_levels_leaves_the_shares_of_a_sweep_facet_after_facet() {
     assert_eq!(levelled, serial);
 }
 
-/// Runs the tasks one after another (last first when `backwards`) but says it
-/// has two threads, so the selection takes its two-thread ways.
-struct TwoThreads {
-    backwards: bool,
-}
-
-impl crate::progress::Progress for TwoThreads {
-    fn report(&mut self, _: crate::progress::Stage, _: u64, _: u64) -> crate::progress::Flow {
-        crate::progress::Flow::Continue
-    }
-
-    fn run(&self, tasks: &mut [&mut dyn crate::parallel::Task]) {
-        if self.backwards {
-            crate::progress::Progress::run(&Backwards, tasks);
-        } else {
-            crate::progress::Progress::run(&Silent, tasks);
-        }
-    }
-
-    fn threads(&self) -> usize {
-        2
-    }
-}
-
 /// The crossed grid with pseudo-random scores from `seed`, and a third of
 /// its edges allowed to end on one facet at a random penalty.
 fn bordered_grid(side: u32, seed: u64) -> (Mesh, Vec<f32>, Vec<u8>, Vec<f32>) {
@@ -827,7 +803,11 @@ fn two_balls_at_once_on_a_lane_give_the_selection_of_balls_in_turn() {
         };
         let (one, one_bits, one_nodes, one_peak) = solve(&mut Silent);
         for backwards in [false, true] {
-            let (two, two_bits, two_nodes, two_peak) = solve(&mut TwoThreads { backwards });
+            let (two, two_bits, two_nodes, two_peak) = solve(&mut Claimed {
+                threads: 2,
+                backwards,
+                full_rounds: Default::default(),
+            });
             assert_eq!(one, two, "limit {}", input.node_limit);
             assert_eq!((one_bits, one_nodes), (two_bits, two_nodes));
             assert!(two_peak > one_peak, "no lane was taken");
