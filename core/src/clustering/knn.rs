@@ -463,14 +463,8 @@ pub fn try_neighbours_from_in<'a>(
 /// would cost more than a linear scan (the caller then does one).
 fn ring_search(grid: &Grid, p: V3, self_idx: u32, best: &mut Best) -> bool {
     let c = grid.cell_of(p);
-    let mut inset = f32::INFINITY;
-    for a in 0..3 {
-        let lo = grid.lo[a] + c[a] as f32 * grid.h;
-        inset = inset.min(p[a] - lo).min(lo + grid.h - p[a]);
-    }
-    // A point clamped into the last cell (or rounding at a face) may sit outside
-    // its cell by a hair: never let the inset go negative.
-    let inset = inset.max(0.0) * (1.0 - 1e-4);
+    let gaps = Gaps::new(grid, p, c);
+    let inset = gaps.inset();
     let n_cells = grid.cell_keys.len() as u64;
     let max_r = grid.dims.iter().copied().max().unwrap_or(1) as i64;
     let mut r: i64 = 0;
@@ -481,12 +475,16 @@ fn ring_search(grid: &Grid, p: V3, self_idx: u32, best: &mut Best) -> bool {
         if r > 1 && side * side * side > 8 * n_cells + 64 {
             return false;
         }
-        visit_ring(grid, c, r, |slot| {
-            let j = grid.order[slot];
-            if j != self_idx {
-                best.offer(dist2(p, grid.sorted[slot]), j);
-            }
-        });
+        if r == 1 {
+            visit_first_ring(grid, c, &gaps, best, p, self_idx);
+        } else {
+            visit_ring(grid, c, r, |slot| {
+                let j = grid.order[slot];
+                if j != self_idx {
+                    best.offer(dist2(p, grid.sorted[slot]), j);
+                }
+            });
+        }
         // Unseen points lie outside the cube of visited cells: at least `reach` away
         // (r cells plus p's distance to its own cell's nearest face). The margin
         // absorbs f32 rounding.
@@ -495,6 +493,110 @@ fn ring_search(grid: &Grid, p: V3, self_idx: u32, best: &mut Best) -> bool {
             return true;
         }
         r += 1;
+    }
+}
+
+/// Lower bounds on the distance from a point to the cells around its own, an
+/// axis at a time: to a cell `d` cells away along an axis, at least `(|d| - 1)
+/// h` plus the point's distance to its own cell's face on that side, each face
+/// distance shrunk by the margin `ring_search`'s certificate uses and by a few
+/// units in the last place of the coordinates (the faces' rounding and
+/// `cell_of`'s), so that a bound never exceeds a distance `dist2` computes.
+struct Gaps {
+    below: [f32; 3],
+    above: [f32; 3],
+}
+
+impl Gaps {
+    fn new(grid: &Grid, p: V3, c: [u32; 3]) -> Self {
+        let (mut below, mut above) = ([0.0f32; 3], [0.0f32; 3]);
+        for a in 0..3 {
+            let lo = grid.lo[a] + c[a] as f32 * grid.h;
+            let hi = lo + grid.h;
+            let slack = 8.0 * f32::EPSILON * (grid.lo[a].abs() + p[a].abs() + hi.abs());
+            // A point clamped into the last cell (or rounding at a face) may sit
+            // outside its cell by a hair: never let a gap go negative.
+            below[a] = ((p[a] - lo) * (1.0 - 1e-4) - slack).max(0.0);
+            above[a] = ((hi - p[a]) * (1.0 - 1e-4) - slack).max(0.0);
+        }
+        Gaps { below, above }
+    }
+
+    /// The point's distance to its own cell's nearest face (within the margins).
+    fn inset(&self) -> f32 {
+        self.below
+            .iter()
+            .chain(&self.above)
+            .fold(f32::INFINITY, |m, &g| m.min(g))
+    }
+
+    /// The bound along axis `a` to a neighbouring cell (`d` of -1, 0, 1).
+    #[inline]
+    fn next(&self, a: usize, d: i64) -> f32 {
+        match d {
+            0 => 0.0,
+            d if d > 0 => self.above[a],
+            _ => self.below[a],
+        }
+    }
+}
+
+/// Ring 1 (the 26 cells around `c`), its occupied cells nearest first by
+/// their bounds in `gaps`: once a cell's bound puts all its points beyond the
+/// k-th best so far, so does every cell after it, and none of their points
+/// could enter `best`, which ends as if each had been offered.
+fn visit_first_ring(grid: &Grid, c: [u32; 3], gaps: &Gaps, best: &mut Best, p: V3, self_idx: u32) {
+    let mut cells = [(0.0f32, 0u32); 26];
+    let mut count = 0;
+    let lo = |a: usize| (c[a] as i64 - 1).max(0);
+    let hi = |a: usize| (c[a] as i64 + 1).min(grid.dims[a] as i64 - 1);
+    let (z_lo, z_hi) = (lo(2), hi(2));
+    for x in lo(0)..=hi(0) {
+        let gx = gaps.next(0, x - c[0] as i64);
+        for y in lo(1)..=hi(1) {
+            let gy = gaps.next(1, y - c[1] as i64);
+            let Some(first) = grid.column(x as u32, y as u32) else {
+                continue;
+            };
+            let column = grid.cell_keys[first] >> 21;
+            let centre = x == c[0] as i64 && y == c[1] as i64;
+            let mut cell = first;
+            while cell < grid.cell_keys.len() && grid.cell_keys[cell] >> 21 == column {
+                let z = (grid.cell_keys[cell] & 0x1F_FFFF) as i64;
+                if z > z_hi {
+                    break;
+                }
+                if z >= z_lo && !(centre && z == c[2] as i64) && count < cells.len() {
+                    let gz = gaps.next(2, z - c[2] as i64);
+                    cells[count] = (gx * gx + gy * gy + gz * gz, cell as u32);
+                    count += 1;
+                }
+                cell += 1;
+            }
+        }
+    }
+    let cells = &mut cells[..count];
+    // Insertion sort: a few cells, nearly in order of their bounds already.
+    for i in 1..cells.len() {
+        let mut j = i;
+        while j > 0 && cells[j - 1].0 > cells[j].0 {
+            cells.swap(j - 1, j);
+            j -= 1;
+        }
+    }
+    for &(bound2, cell) in cells.iter() {
+        // The margin of `ring_search`'s certificate.
+        if best.kth() < bound2 * (1.0 - 1e-5) {
+            break;
+        }
+        let cell = cell as usize;
+        for slot in grid.cell_start[cell]..grid.cell_start[cell + 1] {
+            let slot = slot as usize;
+            let j = grid.order[slot];
+            if j != self_idx {
+                best.offer(dist2(p, grid.sorted[slot]), j);
+            }
+        }
     }
 }
 
@@ -863,6 +965,34 @@ mod tests {
         }
         check(&pts, 12);
         check(&pts, 2);
+    }
+
+    /// Where most searches end in the first ring and pass over its far
+    /// cells: jittered and lattice samples of a surface, at the origin and
+    /// far from it (coordinates whose rounding is near the point spacing).
+    #[test]
+    fn knn_equals_brute_force_on_surfaces_near_and_far_from_the_origin() {
+        let mut rng = Rng::new(11);
+        for offset in [[0.0f32; 3], [1000.0, -2000.0, 500.0]] {
+            let mut pts: Vec<V3> = (0..1500)
+                .map(|_| {
+                    let (u, v) = (rng.unit_f64() as f32, rng.unit_f64() as f32);
+                    let z = 0.2 * (4.0 * u).sin() * (3.0 * v).cos();
+                    [offset[0] + u, offset[1] + v, offset[2] + z]
+                })
+                .collect();
+            for x in 0..20 {
+                for y in 0..20 {
+                    pts.push([
+                        offset[0] + x as f32 / 16.0,
+                        offset[1] + y as f32 / 16.0,
+                        offset[2],
+                    ]);
+                }
+            }
+            check(&pts, 12);
+            check(&pts, 5);
+        }
     }
 
     #[test]
