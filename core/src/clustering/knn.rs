@@ -8,7 +8,9 @@
 //! stops once the k-th best distance is below `r * h`: every point not yet seen lies
 //! at least that far away, so the answer is *certified* exact, not approximate.
 //! Ties are broken by point index, so the result equals a brute-force sort of
-//! `(distance², index)`.
+//! `(distance², index)`. Ring 1, where most queries end, is visited nearest
+//! cell first (by a lower bound on each cell's distance), and stops at the
+//! first cell whose bound is beyond the k-th best so far.
 //!
 //! Memory: the result is `4 k` bytes per point (plus the reverse-edge table below);
 //! the grid is scratch, about `16 + 40 / occupancy` bytes per point while queries run.
