@@ -480,12 +480,7 @@ fn ring_search(grid: &Grid, p: V3, self_idx: u32, best: &mut Best) -> bool {
         if r == 1 {
             visit_first_ring(grid, c, &gaps, best, p, self_idx);
         } else {
-            visit_ring(grid, c, r, |slot| {
-                let j = grid.order[slot];
-                if j != self_idx {
-                    best.offer(dist2(p, grid.sorted[slot]), j);
-                }
-            });
+            visit_ring(grid, c, r, |slot| offer_slot(grid, best, p, self_idx, slot));
         }
         // Unseen points lie outside the cube of visited cells: at least `reach` away
         // (r cells plus p's distance to its own cell's nearest face). The margin
@@ -593,12 +588,19 @@ fn visit_first_ring(grid: &Grid, c: [u32; 3], gaps: &Gaps, best: &mut Best, p: V
         }
         let cell = cell as usize;
         for slot in grid.cell_start[cell]..grid.cell_start[cell + 1] {
-            let slot = slot as usize;
-            let j = grid.order[slot];
-            if j != self_idx {
-                best.offer(dist2(p, grid.sorted[slot]), j);
-            }
+            offer_slot(grid, best, p, self_idx, slot as usize);
         }
+    }
+}
+
+/// Offer `best` the point in sorted slot `slot` of `grid`, unless it is the
+/// query point `self_idx` itself. Always inlined: as a call (plain
+/// `#[inline]` left it one) the search took 13 % more instructions.
+#[inline(always)]
+fn offer_slot(grid: &Grid, best: &mut Best, p: V3, self_idx: u32, slot: usize) {
+    let j = grid.order[slot];
+    if j != self_idx {
+        best.offer(dist2(p, grid.sorted[slot]), j);
     }
 }
 
