@@ -114,6 +114,29 @@ fn shares_without(
     }
 }
 
+/// `exp(x)`, with `exp(0) = 1` without the call (libm gives exactly 1
+/// there too: the same value). The soft maxima shift by their largest term,
+/// so one term of each is 0.
+#[inline(always)]
+fn exp(x: f64) -> f64 {
+    if x == 0.0 {
+        1.0
+    } else {
+        libm::exp(x)
+    }
+}
+
+/// `ln(x)`, with `ln(1) = 0` without the call (libm gives exactly 0 there
+/// too). The first elementary symmetric sum of each soft maximum is 1.
+#[inline(always)]
+fn ln(x: f64) -> f64 {
+    if x == 1.0 {
+        0.0
+    } else {
+        libm::log(x)
+    }
+}
+
 /// The shares `t − c_i` of `score` with `k t = score + Σ c_i` over the
 /// `k = on_minus_off.len()` edges (`c = on_minus_off`), the last one taking the
 /// rounding so that they sum to `score` exactly as far as floating point allows.
@@ -801,7 +824,7 @@ impl Solver<'_> {
                 }
                 previous = x;
                 if x != own && self.facet_state[self.facet_of(x)] == UNDECIDED {
-                    class_sum += libm::exp((self.shares[x as usize] - shift) / temperature);
+                    class_sum += exp((self.shares[x as usize] - shift) / temperature);
                 }
             }
             if previous != u32::MAX {
@@ -827,7 +850,7 @@ impl Solver<'_> {
                     let k = (d - base) as usize;
                     if (mask >> d) & 1 == 1 && sums[k] > 0.0 {
                         let cost = if d == 1 { penalty } else { 0.0 };
-                        let t = libm::log(sums[k]) + (k as f64 * shift - cost) / temperature;
+                        let t = ln(sums[k]) + (k as f64 * shift - cost) / temperature;
                         terms[k] = t;
                         highest = highest.max(t);
                     }
@@ -839,9 +862,9 @@ impl Solver<'_> {
                 let z: f64 = terms
                     .iter()
                     .filter(|t| t.is_finite())
-                    .map(|&t| libm::exp(t - highest))
+                    .map(|&t| exp(t - highest))
                     .sum();
-                temperature * (highest + libm::log(z))
+                temperature * (highest + ln(z))
             };
             let on = soft_max(selected + 1, undecided - 1, [1.0, sum1_other_classes, 0.0]);
             let off = soft_max(selected, undecided - 1, [1.0, sum1, sum2]);
@@ -901,5 +924,18 @@ impl Solver<'_> {
             }
         }
         lowest
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn the_shortcuts_give_what_libm_gives() {
+        for x in [0.0, -0.0, -3.5, 1e-300, 0.7, 2.0] {
+            assert_eq!(super::exp(x).to_bits(), libm::exp(x).to_bits(), "exp {x}");
+        }
+        for x in [1.0, 1e-300, 0.7, 2.0, 1.0 + f64::EPSILON] {
+            assert_eq!(super::ln(x).to_bits(), libm::log(x).to_bits(), "ln {x}");
+        }
     }
 }
