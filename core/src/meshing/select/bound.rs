@@ -153,6 +153,15 @@ fn equalising_shares(score: f64, on_minus_off: &[f64]) -> [f64; MAX_CONSTRAINTS]
     out
 }
 
+/// Whether a refresh of every edge brings the losses (`loss_if_on`,
+/// `loss_if_off`) up to date too, or leaves them stale (the top shares,
+/// terms and picks are fresh either way).
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub(super) enum Losses {
+    Fresh,
+    Stale,
+}
+
 /// The state of one edge that its term depends on besides the shares.
 #[derive(Clone, Copy)]
 struct EdgeCounts {
@@ -326,6 +335,45 @@ impl Solver<'_> {
         }
     }
 
+    /// From edge `e`'s fresh top shares: for each facet on it, whether the
+    /// edge picks it ([`Solver::refresh_marginals`] without the losses).
+    fn refresh_picks(&mut self, e: usize) {
+        let top_at = self.top_incidences[e];
+        let taken = self.taken(e);
+        for k in self.edge_span(e) {
+            let x = self.edge_incidences[k];
+            let f = self.facet_of(x);
+            let bit = 1u8 << (x - self.facet_start[f]);
+            if self.facet_state[f] == UNDECIDED && top_at[..taken].contains(&x) {
+                self.picked_by[f] |= bit;
+            } else {
+                self.picked_by[f] &= !bit;
+            }
+        }
+    }
+
+    /// How many of edge `e`'s top incidences its best term takes (from its
+    /// fresh top shares).
+    fn taken(&self, e: usize) -> usize {
+        let top = self.top_shares[e];
+        self.edge_counts(e).term(top[0], top[1]).1
+    }
+
+    /// Facet `f`'s `picked_by` bits from its edges' fresh top shares, as
+    /// [`Solver::facet_marginals`] returns them.
+    fn facet_picks(&self, f: usize) -> u8 {
+        let mut picked = 0u8;
+        if self.facet_state[f] != UNDECIDED {
+            return picked;
+        }
+        for (i, x) in self.facet_incidences(f).enumerate() {
+            let e = self.incidence_edge[x] as usize;
+            let taken = self.taken(e);
+            picked |= u8::from(self.top_incidences[e][..taken].contains(&(x as u32))) << i;
+        }
+        picked
+    }
+
     /// Incidence `x` of an undecided facet on edge `e` (its counts, its best
     /// term `term` and the incidences `picked` that term takes): what the
     /// term loses if the facet is forced on, and off, and whether it takes
@@ -430,6 +478,18 @@ impl Solver<'_> {
         edges: &[u32],
         hooks: &dyn Progress,
     ) {
+        self.refresh_all(facets, edges, Losses::Fresh, hooks);
+    }
+
+    /// [`Solver::refresh_all_edges`], with `Losses::Stale` leaving
+    /// `loss_if_on` and `loss_if_off` as they are (the picks are fresh).
+    pub(super) fn refresh_all(
+        &mut self,
+        facets: &[u32],
+        edges: &[u32],
+        losses: Losses,
+        hooks: &dyn Progress,
+    ) {
         self.drop_pending_updates();
         let ascending = |list: &[u32]| list.windows(2).all(|w| w[0] < w[1]);
         let ends = match (edges.first(), edges.last(), facets.first(), facets.last()) {
@@ -442,7 +502,11 @@ impl Solver<'_> {
         };
         let Some((e_first, e_last, f_first, f_last)) = ends else {
             for &e in edges {
-                self.refresh_edge(e as usize);
+                self.refresh_top_shares(e as usize);
+                match losses {
+                    Losses::Fresh => self.refresh_marginals(e as usize),
+                    Losses::Stale => self.refresh_picks(e as usize),
+                }
             }
             return;
         };
@@ -471,6 +535,26 @@ impl Solver<'_> {
         );
         (self.edge_terms, self.top_incidences, self.top_shares) = (terms, top_at, tops);
         let (f0, f1) = (f_first as usize, f_last as usize + 1);
+        let f_at = |j: usize| facets.get(j).map_or(f1, |&f| f as usize) - f0;
+        if losses == Losses::Stale {
+            let picked = core::mem::take(&mut self.picked_by);
+            let this = &*self;
+            parallel::segments(
+                hooks,
+                &mut picked[f0..f1],
+                facets.len(),
+                f_at,
+                |items, picked| {
+                    let base = f_at(items.start);
+                    for j in items {
+                        let f = facets[j] as usize;
+                        picked[f - f0 - base] = this.facet_picks(f);
+                    }
+                },
+            );
+            self.picked_by = picked;
+            return;
+        }
         let (x0, x1) = (self.facet_start[f0] as usize, self.facet_start[f1] as usize);
         let on = core::mem::take(&mut self.loss_if_on);
         let off = core::mem::take(&mut self.loss_if_off);
@@ -482,7 +566,6 @@ impl Solver<'_> {
                 .map_or(x1, |&f| this.facet_start[f as usize] as usize)
                 - x0
         };
-        let f_at = |j: usize| facets.get(j).map_or(f1, |&f| f as usize) - f0;
         parallel::segments3(
             hooks,
             &mut on[x0..x1],
@@ -920,7 +1003,10 @@ impl Solver<'_> {
                 self.refresh_stale_marginals();
             } else {
                 self.smoothed_sweep(facets, temperature, levels, hooks);
-                self.refresh_all_edges(facets, edges, hooks);
+                // The sweeps read only the shares, the bound and rounding
+                // only the terms and picks; every later reader of the losses
+                // opens the problem again (a fresh refresh).
+                self.refresh_all(facets, edges, Losses::Stale, hooks);
             }
         }
         lowest

@@ -89,7 +89,9 @@ impl<'a> Fifo<'a> {
 /// and `picked_by` are kept in step with the state and the shares, except for the
 /// edges waiting in `changed_edges` (state changed; see
 /// [`Solver::flush_changed_edges`]) or in `stale_edges` (shares moved, losses and
-/// picks not yet redone; see [`Solver::refresh_stale_marginals`]).
+/// picks not yet redone; see [`Solver::refresh_stale_marginals`]), and for the
+/// losses during the root's smoothed sweeps (refreshed without them: nothing
+/// there reads them, and every later reader opens the problem again).
 pub(super) struct Solver<'a> {
     /// CSR offsets of the facets: facet `f`'s incidences are
     /// `facet_start[f]..facet_start[f + 1]`, 3 to 6 of them; the last entry is the

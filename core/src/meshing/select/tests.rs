@@ -706,6 +706,58 @@ impl crate::progress::Progress for CountingBackwards {
 }
 
 #[test]
+fn a_refresh_without_the_losses_leaves_the_picks_terms_and_top_shares_of_a_full_one() {
+    // Side 3: fewer edges than a parallel refresh takes (one edge after
+    // another); side 16: in tasks, run backwards.
+    for side in [3, 16] {
+        let (m, scores) = crossed_grid(side);
+        let n = m.facets.len();
+        let input = SelectInput::new(&m.facets, &scores, m.edges.len(), 200);
+        let facets: Vec<u32> = (0..n as u32).collect();
+        let edges: Vec<u32> = (0..m.edges.len() as u32).collect();
+        let mut buf = vec![MaybeUninit::<u8>::uninit(); select_bytes_for(&input)];
+        let arena = Arena::new(&mut buf);
+        let mut incumbent = vec![false; n];
+        let mut solver = solver::Solver::try_new_in(&arena, &input, &mut incumbent).unwrap();
+        solver.open_problem(&facets, &edges, &Backwards);
+        let mut disagreeing = 0;
+        for temperature in [0.3, 0.1, 0.03] {
+            for &f in &facets {
+                solver.resplit_smoothed(f as usize, temperature);
+            }
+            let mut caches = Vec::new();
+            for losses in [bound::Losses::Stale, bound::Losses::Fresh] {
+                // Garbage in the picks first: a refresh must set every bit.
+                solver.picked_by.fill(0b10_1010);
+                solver.refresh_all(&facets, &edges, losses, &Backwards);
+                caches.push((
+                    solver.picked_by.to_vec(),
+                    solver
+                        .edge_terms
+                        .iter()
+                        .map(|t| t.to_bits())
+                        .collect::<Vec<_>>(),
+                    solver
+                        .top_shares
+                        .iter()
+                        .flatten()
+                        .map(|t| t.to_bits())
+                        .collect::<Vec<_>>(),
+                    solver.top_incidences.to_vec(),
+                ));
+            }
+            assert!(
+                caches[0] == caches[1],
+                "side {side}, temperature {temperature}"
+            );
+            disagreeing += solver.disagreements(&facets);
+        }
+        // The picks compared were not all alike.
+        assert!(disagreeing > 0, "side {side}: every edge agreed");
+    }
+}
+
+#[test]
 fn a_sweep_by_levels_leaves_the_shares_of_a_sweep_facet_after_facet() {
     // The crossed grid's facets in a scrambled order (a grid order would chain
     // every facet to the one before: one level a facet).
