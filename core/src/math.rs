@@ -162,6 +162,35 @@ pub fn dot_d(a: D3, b: D3) -> f64 {
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Sym3(pub [f64; 6]);
 
+/// One Jacobi rotation of [`Sym3::eigen`] in the `(P, Q)` plane: `a <- Jᵀ a J`
+/// and `v <- v J`, zeroing `a[P][Q]` (nothing when it is 0 already).
+#[inline(always)]
+fn rotate<const P: usize, const Q: usize>(a: &mut [D3; 3], v: &mut [D3; 3]) {
+    if a[P][Q] == 0.0 {
+        return;
+    }
+    let theta = (a[Q][Q] - a[P][P]) / (2.0 * a[P][Q]);
+    let t = theta.signum() / (theta.abs() + libm::sqrt(theta * theta + 1.0));
+    let t = if theta == 0.0 { 1.0 } else { t };
+    let c = 1.0 / libm::sqrt(t * t + 1.0);
+    let s = t * c;
+    for row in a.iter_mut() {
+        let (ap, aq) = (row[P], row[Q]);
+        row[P] = c * ap - s * aq;
+        row[Q] = s * ap + c * aq;
+    }
+    let (rp, rq) = (a[P], a[Q]);
+    for k in 0..3 {
+        a[P][k] = c * rp[k] - s * rq[k];
+        a[Q][k] = s * rp[k] + c * rq[k];
+    }
+    for row in v.iter_mut() {
+        let (vp, vq) = (row[P], row[Q]);
+        row[P] = c * vp - s * vq;
+        row[Q] = s * vp + c * vq;
+    }
+}
+
 impl Sym3 {
     #[inline]
     pub fn full(&self) -> [[f64; 3]; 3] {
@@ -187,32 +216,10 @@ impl Sym3 {
             if off <= 1e-30 * diag || off == 0.0 || off.is_nan() {
                 break;
             }
-            for (p, q) in [(0usize, 1usize), (0, 2), (1, 2)] {
-                if a[p][q] == 0.0 {
-                    continue;
-                }
-                let theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
-                let t = theta.signum() / (theta.abs() + libm::sqrt(theta * theta + 1.0));
-                let t = if theta == 0.0 { 1.0 } else { t };
-                let c = 1.0 / libm::sqrt(t * t + 1.0);
-                let s = t * c;
-                // a <- J^T a J with the rotation in the (p, q) plane.
-                for row in a.iter_mut() {
-                    let (ap, aq) = (row[p], row[q]);
-                    row[p] = c * ap - s * aq;
-                    row[q] = s * ap + c * aq;
-                }
-                let (rp, rq) = (a[p], a[q]);
-                for k in 0..3 {
-                    a[p][k] = c * rp[k] - s * rq[k];
-                    a[q][k] = s * rp[k] + c * rq[k];
-                }
-                for row in v.iter_mut() {
-                    let (vp, vq) = (row[p], row[q]);
-                    row[p] = c * vp - s * vq;
-                    row[q] = s * vp + c * vq;
-                }
-            }
+            // The three planes in turn, each rotation's indices constants.
+            rotate::<0, 1>(&mut a, &mut v);
+            rotate::<0, 2>(&mut a, &mut v);
+            rotate::<1, 2>(&mut a, &mut v);
         }
         let vals = [a[0][0], a[1][1], a[2][2]];
         let col = |i: usize| [v[0][i], v[1][i], v[2][i]];

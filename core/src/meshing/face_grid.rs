@@ -453,6 +453,40 @@ impl<'a> FaceGrid<'a> {
         }
     }
 
+    /// Offers face `f` to `best`, the nearest face to `p` so far and its
+    /// squared distance (the lower index among equals). Always inlined: as a
+    /// call it cost the queries 8 % more instructions (callgrind).
+    #[inline(always)]
+    fn offer(&self, p: V3, f: u32, best: &mut Option<(u32, f32)>) {
+        // A face whose box is no nearer than the best cannot win.
+        if let (Some((_, e)), Some((lo, hi))) = (*best, self.boxes.get(f as usize)) {
+            let gap2: f32 = (0..3)
+                .map(|k| {
+                    let d = (lo[k] - p[k]).max(p[k] - hi[k]).max(0.0);
+                    d * d
+                })
+                .sum();
+            if gap2 > e {
+                return;
+            }
+        }
+        let Some(t) = self
+            .faces
+            .get(f as usize)
+            .and_then(|&t| corners(self.vertices, t))
+        else {
+            return;
+        };
+        let d2 = point_triangle_dist2(p, t[0], t[1], t[2]);
+        let better = match *best {
+            None => true,
+            Some((g, e)) => d2 < e || (d2 == e && f < g),
+        };
+        if better && d2.is_finite() {
+            *best = Some((f, d2));
+        }
+    }
+
     /// The face nearest to `p` and its squared distance (exact point-triangle
     /// distance; ties go to the lower face index), or `None` without faces.
     pub fn nearest(&self, p: V3) -> Option<(u32, f32)> {
@@ -469,35 +503,7 @@ impl<'a> FaceGrid<'a> {
             return None;
         }
         let mut best: Option<(u32, f32)> = None;
-        let offer = |f: u32, best: &mut Option<(u32, f32)>| {
-            // A face whose box is no nearer than the best cannot win.
-            if let (Some((_, e)), Some((lo, hi))) = (*best, self.boxes.get(f as usize)) {
-                let gap2: f32 = (0..3)
-                    .map(|k| {
-                        let d = (lo[k] - p[k]).max(p[k] - hi[k]).max(0.0);
-                        d * d
-                    })
-                    .sum();
-                if gap2 > e {
-                    return;
-                }
-            }
-            let Some(t) = self
-                .faces
-                .get(f as usize)
-                .and_then(|&t| corners(self.vertices, t))
-            else {
-                return;
-            };
-            let d2 = point_triangle_dist2(p, t[0], t[1], t[2]);
-            let better = match *best {
-                None => true,
-                Some((g, e)) => d2 < e || (d2 == e && f < g),
-            };
-            if better && d2.is_finite() {
-                *best = Some((f, d2));
-            }
-        };
+        let offer = |f: u32, best: &mut Option<(u32, f32)>| self.offer(p, f, best);
         if let Some(h) = hint {
             offer(h, &mut best);
         }

@@ -198,6 +198,7 @@ impl Solver<'_> {
     }
 
     /// What edge `e`'s term depends on besides the shares.
+    #[inline]
     fn edge_counts(&self, e: usize) -> EdgeCounts {
         EdgeCounts {
             selected: self.selected_count[e],
