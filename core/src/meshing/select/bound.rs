@@ -466,24 +466,15 @@ impl Solver<'_> {
         self.facet_queue.clear();
     }
 
-    /// Refresh every edge of the current problem (`facets`, `edges`). For
-    /// many edges (both lists ascending), in parallel tasks run by `hooks`:
-    /// the edges' top shares, each task writing those of a range of edge ids,
-    /// then the marginals facet by facet, each task writing those of a range of
-    /// facet ids (every edge of a problem's facet is in the problem, and the
+    /// Refresh every edge of the current problem (`facets`, `edges`), with
+    /// `Losses::Stale` leaving `loss_if_on` and `loss_if_off` as they are
+    /// (the top shares, terms and picks are fresh either way). For many edges
+    /// (both lists ascending), in parallel tasks run by `hooks`: the edges'
+    /// top shares, each task writing those of a range of edge ids, then the
+    /// marginals facet by facet, each task writing those of a range of facet
+    /// ids (every edge of a problem's facet is in the problem, and the
     /// marginals of a facet outside it are never read). Else one edge after
     /// another. The caches read are the same either way.
-    pub(super) fn refresh_all_edges(
-        &mut self,
-        facets: &[u32],
-        edges: &[u32],
-        hooks: &dyn Progress,
-    ) {
-        self.refresh_all(facets, edges, Losses::Fresh, hooks);
-    }
-
-    /// [`Solver::refresh_all_edges`], with `Losses::Stale` leaving
-    /// `loss_if_on` and `loss_if_off` as they are (the picks are fresh).
     pub(super) fn refresh_all(
         &mut self,
         facets: &[u32],
@@ -591,8 +582,21 @@ impl Solver<'_> {
     }
 
     /// Make (`facets`, `edges`) the current problem, with fresh caches (see
-    /// [`Solver::refresh_all_edges`] for `hooks`).
+    /// [`Solver::refresh_all`] for `hooks`).
     pub(super) fn open_problem(&mut self, facets: &[u32], edges: &[u32], hooks: &dyn Progress) {
+        self.open_problem_with(facets, edges, Losses::Fresh, hooks);
+    }
+
+    /// [`Solver::open_problem`], with the losses left stale for `Losses::Stale`
+    /// (for a caller that reads only the terms and picks before the problem is
+    /// opened again).
+    pub(super) fn open_problem_with(
+        &mut self,
+        facets: &[u32],
+        edges: &[u32],
+        losses: Losses,
+        hooks: &dyn Progress,
+    ) {
         for &e in edges {
             self.edge_in_problem[e as usize] = true;
         }
@@ -604,7 +608,7 @@ impl Solver<'_> {
                 self.selected_score += self.scores[f] as f64;
             }
         }
-        self.refresh_all_edges(facets, edges, hooks);
+        self.refresh_all(facets, edges, losses, hooks);
     }
 
     /// End the current problem (`facets`, `edges`); no edge waits for a refresh after.

@@ -4,6 +4,7 @@
 //! dive is at most F propagations; rounding and piece dropping O(incidences of
 //! the problem); a neighbourhood search at most its share of the node budget.
 
+use super::bound::Losses;
 use super::search::{Budget, Stack, NODES_PER_REPORT};
 use super::solver::{Solver, ON, UNDECIDED};
 use crate::arena::Alloc;
@@ -425,8 +426,10 @@ impl Solver<'_> {
     ) -> Result<()> {
         let mut ball_size = NEIGHBOURHOOD_SIZE;
         for _ in 0..NEIGHBOURHOOD_PASSES {
-            // Seeds: facets the bound's picks would set otherwise than the incumbent.
-            self.open_problem(facets, edges, &*budget.progress);
+            // Seeds: facets the bound's picks would set otherwise than the
+            // incumbent (only the picks are read: each ball opens its own
+            // problem, and the search after them the whole one again).
+            self.open_problem_with(facets, edges, Losses::Stale, &*budget.progress);
             for &f in facets {
                 let f = f as usize;
                 let incumbent_picks = if self.incumbent[f] {

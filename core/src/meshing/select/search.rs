@@ -6,7 +6,7 @@
 //! [`NODE_RESPLITS`] re-splits, and the same for each probed child with
 //! [`PROBE_RESPLITS`].
 
-use super::bound::{Levels, MIN_SHARE_MOVE};
+use super::bound::{Levels, Losses, MIN_SHARE_MOVE};
 use super::incumbent::{Lane, Neighbourhood};
 use super::solver::{Solver, UNDECIDED};
 use crate::arena::Alloc;
@@ -122,7 +122,8 @@ impl Solver<'_> {
             incumbent_value = v;
         }
         incumbent_value += self.drop_incumbent_pieces(facets);
-        self.open_problem(facets, edges, &*budget.progress);
+        // The root's sweeps read the terms and picks only (see root_bound).
+        self.open_problem_with(facets, edges, Losses::Stale, &*budget.progress);
         // The root's sweeps borrow the stack's and the ball's arrays, whose
         // searches come after.
         let (order, last) = ball.arrays();

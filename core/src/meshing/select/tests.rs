@@ -796,7 +796,7 @@ fn a_sweep_by_levels_leaves_the_shares_of_a_sweep_facet_after_facet() {
                 }
             }
             after.push(solver.shares.iter().map(|s| s.to_bits()).collect());
-            solver.refresh_all_edges(&facets, &edges, &Silent);
+            solver.refresh_all(&facets, &edges, bound::Losses::Fresh, &Silent);
         }
         (after, hooks.0.get() - before)
     };
