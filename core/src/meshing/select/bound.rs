@@ -311,8 +311,9 @@ impl Solver<'_> {
     }
 
     /// From edge `e`'s fresh top shares: for each undecided facet on it, whether
-    /// the edge picks it and what the edge's term loses if it is forced on / off.
-    fn refresh_marginals(&mut self, e: usize) {
+    /// the edge picks it and (when `losses` is fresh) what the edge's term
+    /// loses if it is forced on / off.
+    fn refresh_marginals(&mut self, e: usize, losses: Losses) {
         let counts = self.edge_counts(e);
         let (top_at, top) = (self.top_incidences[e], self.top_shares[e]);
         let (term, taken) = counts.term(top[0], top[1]);
@@ -321,14 +322,17 @@ impl Solver<'_> {
             let xi = x as usize;
             let f = self.facet_of(x);
             let bit = 1u8 << (x - self.facet_start[f]);
-            let (on, off, picked) = if self.facet_state[f] == UNDECIDED {
-                self.marginal(e, x, counts, &top_at[..taken], term)
-            } else {
-                (0.0, 0.0, false)
-            };
-            self.loss_if_on[xi] = on;
-            self.loss_if_off[xi] = off;
-            if picked {
+            let undecided = self.facet_state[f] == UNDECIDED;
+            if losses == Losses::Fresh {
+                let (on, off) = if undecided {
+                    self.losses(e, x, counts, term)
+                } else {
+                    (0.0, 0.0)
+                };
+                self.loss_if_on[xi] = on;
+                self.loss_if_off[xi] = off;
+            }
+            if undecided && top_at[..taken].contains(&x) {
                 self.picked_by[f] |= bit;
             } else {
                 self.picked_by[f] &= !bit;
@@ -336,96 +340,51 @@ impl Solver<'_> {
         }
     }
 
-    /// From edge `e`'s fresh top shares: for each facet on it, whether the
-    /// edge picks it ([`Solver::refresh_marginals`] without the losses).
-    fn refresh_picks(&mut self, e: usize) {
-        let top_at = self.top_incidences[e];
-        let taken = self.taken(e);
-        for k in self.edge_span(e) {
-            let x = self.edge_incidences[k];
-            let f = self.facet_of(x);
-            let bit = 1u8 << (x - self.facet_start[f]);
-            if self.facet_state[f] == UNDECIDED && top_at[..taken].contains(&x) {
-                self.picked_by[f] |= bit;
-            } else {
-                self.picked_by[f] &= !bit;
-            }
-        }
-    }
-
-    /// How many of edge `e`'s top incidences its best term takes (from its
-    /// fresh top shares).
-    fn taken(&self, e: usize) -> usize {
-        let top = self.top_shares[e];
-        self.edge_counts(e).term(top[0], top[1]).1
-    }
-
-    /// Facet `f`'s `picked_by` bits from its edges' fresh top shares, as
-    /// [`Solver::facet_marginals`] returns them.
-    fn facet_picks(&self, f: usize) -> u8 {
-        let mut picked = 0u8;
-        if self.facet_state[f] != UNDECIDED {
-            return picked;
-        }
-        for (i, x) in self.facet_incidences(f).enumerate() {
-            let e = self.incidence_edge[x] as usize;
-            let taken = self.taken(e);
-            picked |= u8::from(self.top_incidences[e][..taken].contains(&(x as u32))) << i;
-        }
-        picked
-    }
-
-    /// Incidence `x` of an undecided facet on edge `e` (its counts, its best
-    /// term `term` and the incidences `picked` that term takes): what the
-    /// term loses if the facet is forced on, and off, and whether it takes
-    /// the facet.
-    fn marginal(
-        &self,
-        e: usize,
-        x: u32,
-        counts: EdgeCounts,
-        picked: &[u32],
-        term: f64,
-    ) -> (f64, f64, bool) {
+    /// Incidence `x` of an undecided facet on edge `e` (its counts and its
+    /// best term `term`): what the term loses if the facet is forced on, and
+    /// off.
+    fn losses(&self, e: usize, x: u32, counts: EdgeCounts, term: f64) -> (f64, f64) {
         let (on_term, off) = self.forced_terms(e, x, counts);
         let on = self.shares[x as usize] + on_term;
         // An edge that no completion satisfies (two classes short) makes the
         // bound −∞; its marginals are moot.
-        let (on, off) = if term.is_finite() {
+        if term.is_finite() {
             (term - on, term - off)
         } else {
             (0.0, 0.0)
-        };
-        (on, off, picked.contains(&x))
+        }
     }
 
-    /// Facet `f`'s losses if forced on (`on`) and off (`off`), one per
-    /// incidence, from its edges' fresh top shares, as
-    /// [`Solver::refresh_marginals`] sets them; returns its `picked_by` bits.
-    fn facet_marginals(&self, f: usize, on: &mut [f64], off: &mut [f64]) -> u8 {
+    /// Facet `f`'s `picked_by` bits from its edges' fresh top shares, as
+    /// [`Solver::refresh_marginals`] sets them, and with `losses` its losses
+    /// if forced on and off, one per incidence.
+    #[inline]
+    fn facet_marginals(&self, f: usize, mut losses: Option<(&mut [f64], &mut [f64])>) -> u8 {
         let mut picked = 0u8;
         if self.facet_state[f] != UNDECIDED {
-            on.fill(0.0);
-            off.fill(0.0);
+            if let Some((on, off)) = losses {
+                on.fill(0.0);
+                off.fill(0.0);
+            }
             return picked;
         }
         for (i, x) in self.facet_incidences(f).enumerate() {
             let e = self.incidence_edge[x] as usize;
             let counts = self.edge_counts(e);
-            let (top_at, top) = (self.top_incidences[e], self.top_shares[e]);
+            let (top_at, top) = (&self.top_incidences[e], &self.top_shares[e]);
             let (term, taken) = counts.term(top[0], top[1]);
-            let (loss_on, loss_off, taken_here) =
-                self.marginal(e, x as u32, counts, &top_at[..taken], term);
-            (on[i], off[i]) = (loss_on, loss_off);
-            picked |= u8::from(taken_here) << i;
+            if let Some((on, off)) = losses.as_mut() {
+                (on[i], off[i]) = self.losses(e, x as u32, counts, term);
+            }
+            picked |= u8::from(top_at[..taken].contains(&(x as u32))) << i;
         }
         picked
     }
 
-    /// Recompute edge `e`'s whole cache.
-    fn refresh_edge(&mut self, e: usize) {
+    /// Recompute edge `e`'s cache (its losses only when `losses` is fresh).
+    fn refresh_edge(&mut self, e: usize, losses: Losses) {
         self.refresh_top_shares(e);
-        self.refresh_marginals(e);
+        self.refresh_marginals(e, losses);
     }
 
     /// Bring the marginals of the edges whose shares moved up to date.
@@ -433,7 +392,7 @@ impl Solver<'_> {
         for i in 0..self.stale_len {
             let e = self.stale_edges[i] as usize;
             self.marginals_stale[e] = false;
-            self.refresh_marginals(e);
+            self.refresh_marginals(e, Losses::Fresh);
         }
         self.stale_len = 0;
     }
@@ -444,7 +403,7 @@ impl Solver<'_> {
         for i in 0..self.changed_len {
             let e = self.changed_edges[i] as usize;
             self.edge_changed[e] = false;
-            self.refresh_edge(e);
+            self.refresh_edge(e, Losses::Fresh);
             for k in self.edge_span(e) {
                 let f = self.facet_of(self.edge_incidences[k]);
                 if self.facet_state[f] == UNDECIDED {
@@ -494,11 +453,7 @@ impl Solver<'_> {
         };
         let Some((e_first, e_last, f_first, f_last)) = ends else {
             for &e in edges {
-                self.refresh_top_shares(e as usize);
-                match losses {
-                    Losses::Fresh => self.refresh_marginals(e as usize),
-                    Losses::Stale => self.refresh_picks(e as usize),
-                }
+                self.refresh_edge(e as usize, losses);
             }
             return;
         };
@@ -540,7 +495,7 @@ impl Solver<'_> {
                     let base = f_at(items.start);
                     for j in items {
                         let f = facets[j] as usize;
-                        picked[f - f0 - base] = this.facet_picks(f);
+                        picked[f - f0 - base] = this.facet_marginals(f, None);
                     }
                 },
             );
@@ -574,7 +529,7 @@ impl Solver<'_> {
                     let lo = xs.start - x0 - base_x;
                     let n = xs.len();
                     picked[f - f0 - base_f] =
-                        this.facet_marginals(f, &mut on[lo..lo + n], &mut off[lo..lo + n]);
+                        this.facet_marginals(f, Some((&mut on[lo..lo + n], &mut off[lo..lo + n])));
                 }
             },
         );
