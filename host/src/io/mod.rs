@@ -676,6 +676,7 @@ impl Scalar {
     }
 
     /// Decodes one value from the start of `b`; `None` if `b` is too short.
+    #[inline]
     pub(crate) fn decode(self, b: &[u8], big_endian: bool) -> Option<f64> {
         macro_rules! num {
             ($t:ty) => {{

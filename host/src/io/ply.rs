@@ -370,6 +370,38 @@ fn walk_binary(
         }
         slots.clear();
         slots.resize(n_slots(&roles[ei]), 0.0);
+        if !has_lists {
+            // Rows of one size (checked above to fit): each wanted scalar
+            // read at its offset in the row, the others not decoded at all.
+            let mut wanted = Vec::new();
+            let mut offset = 0;
+            for (p, role) in el.props.iter().zip(&roles[ei]) {
+                if let (Kind::Scalar(t), Role::Slot(k)) = (p.kind, *role) {
+                    wanted.push((offset, t, k));
+                }
+                offset += match p.kind {
+                    Kind::Scalar(t) => t.size(),
+                    Kind::List { len, .. } => len.size(),
+                };
+            }
+            // Checked above: count * min_row <= remaining.
+            let body = &data[pos..pos + el.count as usize * min_row];
+            for (index, row) in body.chunks_exact(min_row.max(1)).enumerate() {
+                for &(at, t, k) in &wanted {
+                    // In range: `at + t.size()` is at most the row's size.
+                    slots[k] = t.decode(&row[at..], big).unwrap_or(0.0);
+                }
+                on_row(Row {
+                    element: ei,
+                    index: index as u64,
+                    slots: &slots,
+                    list: &list,
+                    loc: Loc::Byte(pos + index * min_row),
+                })?;
+            }
+            pos += body.len();
+            continue;
+        }
         for index in 0..el.count {
             let start = pos;
             list.clear();
@@ -839,6 +871,57 @@ mod tests {
         let n = c.normals.unwrap();
         assert_eq!(n.len(), 2);
         assert!(n[1][1].is_nan(), "normals are passed through unchanged");
+    }
+
+    #[test]
+    fn binary_rows_without_lists_read_each_wanted_scalar_at_its_offset() {
+        // Fixed-size rows (the fast path): skipped scalars of several sizes
+        // between and around the wanted ones, both byte orders, and an element
+        // before the vertices that is skipped whole.
+        for big in [false, true] {
+            let order = if big { "big" } else { "little" };
+            let mut data = format!(
+                "ply\nformat binary_{order}_endian 1.0\nelement camera 1\nproperty int id\n\
+                 element vertex 3\nproperty uchar flag\nproperty double x\nproperty short junk\n\
+                 property float y\nproperty float z\nproperty double more\n\
+                 property uchar red\nproperty uchar green\nproperty uchar blue\nend_header\n"
+            )
+            .into_bytes();
+            data.extend_from_slice(&9i32.to_le_bytes());
+            for i in 0..3u8 {
+                let x = f64::from(i) + 0.25;
+                let (y, z) = (-f32::from(i), 1e-3 * f32::from(i));
+                data.push(200);
+                data.extend_from_slice(&if big {
+                    x.to_be_bytes()
+                } else {
+                    x.to_le_bytes()
+                });
+                data.extend_from_slice(&[0x7f, 0x01]);
+                for v in [y, z] {
+                    data.extend_from_slice(&if big {
+                        v.to_be_bytes()
+                    } else {
+                        v.to_le_bytes()
+                    });
+                }
+                data.extend_from_slice(&[0xAB; 8]);
+                data.extend_from_slice(&[i, 10 * i, 255 - i]);
+            }
+            let c = parse_cloud(&data).unwrap();
+            let want: Vec<[f64; 3]> = (0..3u8)
+                .map(|i| {
+                    let i = f32::from(i);
+                    [f64::from(i) + 0.25, f64::from(-i), f64::from(1e-3 * i)]
+                })
+                .collect();
+            assert_eq!(c.positions, want, "{order} endian");
+            assert_eq!(
+                c.colors,
+                Some(vec![[0, 0, 255], [1, 10, 254], [2, 20, 253]]),
+                "{order} endian"
+            );
+        }
     }
 
     #[test]
