@@ -46,6 +46,23 @@ pub(super) struct Levels<'s> {
     pub(super) start: &'s mut [u32],
     /// Per edge id: the level of the last facet on it so far.
     pub(super) last: &'s mut [u32],
+    /// What the arrays hold, planned by the first sweep and kept for the
+    /// next ones: it holds while no facet of the list is decided or set free
+    /// again (the root's sweeps decide none); make it [`Plan::Unplanned`]
+    /// for another list or state.
+    pub(super) plan: Plan,
+}
+
+/// The levels of a sweep (see [`Solver::sweep_in_levels`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) enum Plan {
+    /// Not worked out yet.
+    Unplanned,
+    /// The facets are swept one after another (too few a level, or too few
+    /// in all).
+    Serial,
+    /// Levels `1..=top`, in the arrays.
+    Levels(usize),
 }
 
 /// Best value of one edge alone: the maximum over degrees `d` allowed by `mask`
@@ -718,7 +735,9 @@ impl Solver<'_> {
     /// facet the shares it reads one facet after another. A level of
     /// [`PARALLEL_LEVEL`] facets or more is computed in parallel tasks into
     /// `loss_if_on` (a cache, stale until the refresh after the sweep) and
-    /// then copied into the shares; a smaller one on the calling thread.
+    /// then copied into the shares; a smaller one on the calling thread. The
+    /// levels are worked out by the first sweep and kept in `levels` for the
+    /// next ones ([`Levels::plan`]): the root's 30 sweeps plan once.
     pub(super) fn sweep_in_levels(
         &mut self,
         facets: &[u32],
@@ -726,57 +745,13 @@ impl Solver<'_> {
         levels: &mut Levels<'_>,
         hooks: &dyn Progress,
     ) -> bool {
-        let n = facets.len();
-        let Levels {
-            level,
-            order,
-            start,
-            last,
-        } = levels;
-        if n < PARALLEL_LEVEL
-            || level.len() < n
-            || order.len() < n
-            || !facets.windows(2).all(|w| w[0] < w[1])
-        {
+        if levels.plan == Plan::Unplanned {
+            levels.plan = self.plan_levels(facets, levels);
+        }
+        let Plan::Levels(top) = levels.plan else {
             return false;
-        }
-        for &f in facets {
-            for &e in self.edges_of(f as usize) {
-                last[e as usize] = 0;
-            }
-        }
-        let mut top = 0u32;
-        for (j, &f) in facets.iter().enumerate() {
-            let f = f as usize;
-            level[j] = 0;
-            if self.facet_state[f] != UNDECIDED {
-                continue;
-            }
-            let edges = self.edges_of(f);
-            let l = 1 + edges.iter().map(|&e| last[e as usize]).max().unwrap_or(0);
-            for &e in edges {
-                last[e as usize] = l;
-            }
-            level[j] = l;
-            top = top.max(l);
-        }
-        let top = top as usize;
-        if top + 2 > start.len() || top.saturating_mul(MIN_MEAN_LEVEL) > n {
-            return false;
-        }
-        // Positions by level, ascending within a level (a counting sort): level
-        // l's are `order[start[l - 1]..start[l]]` after the scatter.
-        start[..top + 2].fill(0);
-        for &l in &level[..n] {
-            start[l as usize + 1] += 1;
-        }
-        for l in 0..=top {
-            start[l + 1] += start[l];
-        }
-        for (j, &l) in level[..n].iter().enumerate() {
-            order[start[l as usize] as usize] = j as u32;
-            start[l as usize] += 1;
-        }
+        };
+        let (order, start) = (&*levels.order, &*levels.start);
         for l in 1..=top {
             let list = &order[start[l - 1] as usize..start[l] as usize];
             if list.len() < PARALLEL_LEVEL {
@@ -818,6 +793,67 @@ impl Solver<'_> {
             self.loss_if_on = staged;
         }
         true
+    }
+
+    /// The levels of [`Solver::sweep_in_levels`] for `facets`, into `levels`'
+    /// arrays: level `l`'s positions in `facets` are `order[start[l -
+    /// 1]..start[l]]`. [`Plan::Serial`] when the facets are too few, not
+    /// ascending, the arrays too short, or the levels too many for their
+    /// facets.
+    fn plan_levels(&self, facets: &[u32], levels: &mut Levels<'_>) -> Plan {
+        let n = facets.len();
+        let Levels {
+            level,
+            order,
+            start,
+            last,
+            ..
+        } = levels;
+        if n < PARALLEL_LEVEL
+            || level.len() < n
+            || order.len() < n
+            || !facets.windows(2).all(|w| w[0] < w[1])
+        {
+            return Plan::Serial;
+        }
+        for &f in facets {
+            for &e in self.edges_of(f as usize) {
+                last[e as usize] = 0;
+            }
+        }
+        let mut top = 0u32;
+        for (j, &f) in facets.iter().enumerate() {
+            let f = f as usize;
+            level[j] = 0;
+            if self.facet_state[f] != UNDECIDED {
+                continue;
+            }
+            let edges = self.edges_of(f);
+            let l = 1 + edges.iter().map(|&e| last[e as usize]).max().unwrap_or(0);
+            for &e in edges {
+                last[e as usize] = l;
+            }
+            level[j] = l;
+            top = top.max(l);
+        }
+        let top = top as usize;
+        if top + 2 > start.len() || top.saturating_mul(MIN_MEAN_LEVEL) > n {
+            return Plan::Serial;
+        }
+        // Positions by level, ascending within a level (a counting sort): level
+        // l's are `order[start[l - 1]..start[l]]` after the scatter.
+        start[..top + 2].fill(0);
+        for &l in &level[..n] {
+            start[l as usize + 1] += 1;
+        }
+        for l in 0..=top {
+            start[l + 1] += start[l];
+        }
+        for (j, &l) in level[..n].iter().enumerate() {
+            order[start[l as usize] as usize] = j as u32;
+            start[l as usize] += 1;
+        }
+        Plan::Levels(top)
     }
 
     /// Coordinate descent on facet `f` on the dual smoothed at `temperature`:

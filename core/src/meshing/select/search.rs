@@ -6,7 +6,7 @@
 //! [`NODE_RESPLITS`] re-splits, and the same for each probed child with
 //! [`PROBE_RESPLITS`].
 
-use super::bound::{Levels, Losses, MIN_SHARE_MOVE};
+use super::bound::{Levels, Losses, Plan, MIN_SHARE_MOVE};
 use super::incumbent::{Lane, Neighbourhood};
 use super::solver::{Solver, UNDECIDED};
 use crate::arena::Alloc;
@@ -132,6 +132,7 @@ impl Solver<'_> {
             order,
             start: &mut *stack.trail_marks,
             last,
+            plan: Plan::Unplanned,
         };
         let root_bound = self.root_bound(
             facets,

@@ -784,12 +784,15 @@ fn a_sweep_by_levels_leaves_the_shares_of_a_sweep_facet_after_facet() {
             order: &mut order,
             start: &mut start,
             last: &mut last,
+            plan: bound::Plan::Unplanned,
         };
         let before = hooks.0.get();
         let mut after = Vec::new();
         for temperature in [0.2, 0.1, 0.05, 0.02] {
             if by_levels {
                 assert!(solver.sweep_in_levels(&facets, temperature, &mut levels, &hooks));
+                // Planned by the first sweep, kept for the next.
+                assert!(matches!(levels.plan, bound::Plan::Levels(_)));
             } else {
                 for &f in &facets {
                     solver.resplit_smoothed(f as usize, temperature);
