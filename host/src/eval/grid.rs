@@ -2,6 +2,7 @@
 //! nearest-item ring search and an enumeration of the overlapping pairs.
 
 use crate::geom::sub;
+use std::ops::Range;
 
 /// A uniform grid of cubic cells over items given by axis-aligned boxes; each item is
 /// listed in every cell its box overlaps (CSR: `start[cell]..start[cell + 1]` of
@@ -110,18 +111,21 @@ impl Grid {
     }
 
     /// Calls `f(i, j)`, `i < j`, exactly once for every pair of items whose (closed)
-    /// boxes overlap: in the cell holding the lower corner of the two boxes'
-    /// intersection, which both boxes cover. O(sum over cells of items²).
-    /// Stops early, returning `false`, once `f` returns `false` or more than
-    /// `limit` pairs of items sharing a cell have been looked at.
+    /// boxes overlap and the lower corner of whose boxes' intersection lies in
+    /// a cell of a layer of `layers` (the cells' `z` index; `0..dims[2]`: every
+    /// pair once): in that cell, which both boxes cover. So disjoint ranges of
+    /// layers share no pair, and together cover every one. O(sum over cells
+    /// of items²). Stops early, returning `false`, once `f` returns `false` or
+    /// more than `limit` pairs of items sharing a cell have been looked at.
     pub(super) fn overlapping_pairs(
         &self,
         boxes: &[([f64; 3], [f64; 3])],
+        layers: Range<usize>,
         limit: u64,
         mut f: impl FnMut(u32, u32) -> bool,
     ) -> bool {
         let mut looked = 0u64;
-        for z in 0..self.dims[2] {
+        for z in layers.start..layers.end.min(self.dims[2]) {
             for y in 0..self.dims[1] {
                 for x in 0..self.dims[0] {
                     let id = x + self.dims[0] * (y + self.dims[1] * z);

@@ -17,6 +17,7 @@
 
 use super::grid::{bounds, Grid};
 use super::zero_area;
+use std::ops::Range;
 use vsaqem_core::meshing::intersect::faces_intersect;
 
 type P = [f64; 3];
@@ -57,53 +58,105 @@ pub struct Crossings {
 /// 2^24 and 2^20 (`complete` false): meshes need 7-8 exact tests a face,
 /// faces piled in one place as many as the pile.
 pub fn self_intersecting_pairs(vertices: &[P], faces: &[[u32; 3]]) -> Crossings {
-    let mut pairs = 0;
-    let complete = for_each_intersecting_pair(vertices, faces, |_, _| pairs += 1);
-    Crossings { pairs, complete }
+    let candidates = Candidates::new(vertices, faces);
+    candidates.crossings_in(faces, 0..candidates.layers())
+}
+
+/// The faces [`self_intersecting_pairs`] tests (those with three distinct
+/// indices, finite corners and an area), their corners and bounding boxes,
+/// and the grid over the boxes: made once, then the pairs counted in one
+/// range of the grid's layers or several (each its own limits), so that the
+/// ranges may be counted on several threads.
+pub(super) struct Candidates {
+    tested: Vec<u32>,
+    tris: Vec<[P; 3]>,
+    boxes: Vec<(P, P)>,
+    grid: Option<Grid>,
+}
+
+impl Candidates {
+    /// The candidates among `faces` (indices all `< vertices.len()`).
+    pub(super) fn new(vertices: &[P], faces: &[[u32; 3]]) -> Candidates {
+        let tested: Vec<u32> = (0..faces.len() as u32)
+            .filter(|&i| {
+                let g = faces[i as usize];
+                let t = g.map(|v| vertices[v as usize]);
+                g[0] != g[1]
+                    && g[1] != g[2]
+                    && g[0] != g[2]
+                    && t.iter().flatten().all(|c| c.is_finite())
+                    && !zero_area(&t)
+            })
+            .collect();
+        let tris: Vec<[P; 3]> = tested
+            .iter()
+            .map(|&i| faces[i as usize].map(|v| vertices[v as usize]))
+            .collect();
+        let boxes: Vec<(P, P)> = tris.iter().map(|t| bounds(t.iter().copied())).collect();
+        let grid = (tested.len() >= 2).then(|| Grid::build(&boxes, face_sized_cells(&boxes)));
+        Candidates {
+            tested,
+            tris,
+            boxes,
+            grid,
+        }
+    }
+
+    /// Layers of the grid's cells (0 without a pair to test).
+    pub(super) fn layers(&self) -> usize {
+        self.grid.as_ref().map_or(0, |g| g.dims[2])
+    }
+
+    /// The intersecting pairs whose cell ([`Grid::overlapping_pairs`]) lies
+    /// in `layers`, under the limits of [`self_intersecting_pairs`].
+    pub(super) fn crossings_in(&self, faces: &[[u32; 3]], layers: Range<usize>) -> Crossings {
+        let mut pairs = 0;
+        let complete = self.for_each_in(faces, layers, |_, _| pairs += 1);
+        Crossings { pairs, complete }
+    }
+
+    /// Calls `f(i, j)`, `i < j` indices into `faces`, once for every
+    /// intersecting pair found in `layers`; `false` when it stopped at its
+    /// limits.
+    fn for_each_in(
+        &self,
+        faces: &[[u32; 3]],
+        layers: Range<usize>,
+        mut f: impl FnMut(u32, u32),
+    ) -> bool {
+        let Some(grid) = &self.grid else {
+            return true;
+        };
+        let (tested, tris) = (&self.tested, &self.tris);
+        let n = tested.len() as u64;
+        let mut left = TESTED_PER_FACE * n + TESTED_FLOOR;
+        grid.overlapping_pairs(
+            &self.boxes,
+            layers,
+            LOOKED_PER_FACE * n + LOOKED_FLOOR,
+            |a, b| {
+                if left == 0 {
+                    return false;
+                }
+                left -= 1;
+                let (a, b) = (a as usize, b as usize);
+                let (i, j) = (tested[a], tested[b]);
+                if faces_intersect(faces[i as usize], &tris[a], faces[j as usize], &tris[b]) {
+                    f(i, j);
+                }
+                true
+            },
+        )
+    }
 }
 
 /// Calls `f(i, j)`, `i < j` indices into `faces`, once for every intersecting pair,
 /// as [`self_intersecting_pairs`] counts them; `false` when it stopped at its
 /// limits.
-fn for_each_intersecting_pair(
-    vertices: &[P],
-    faces: &[[u32; 3]],
-    mut f: impl FnMut(u32, u32),
-) -> bool {
-    let tested: Vec<u32> = (0..faces.len() as u32)
-        .filter(|&i| {
-            let g = faces[i as usize];
-            let t = g.map(|v| vertices[v as usize]);
-            g[0] != g[1]
-                && g[1] != g[2]
-                && g[0] != g[2]
-                && t.iter().flatten().all(|c| c.is_finite())
-                && !zero_area(&t)
-        })
-        .collect();
-    if tested.len() < 2 {
-        return true;
-    }
-    let tris: Vec<[P; 3]> = tested
-        .iter()
-        .map(|&i| faces[i as usize].map(|v| vertices[v as usize]))
-        .collect();
-    let boxes: Vec<(P, P)> = tris.iter().map(|t| bounds(t.iter().copied())).collect();
-    let grid = Grid::build(&boxes, face_sized_cells(&boxes));
-    let n = tested.len() as u64;
-    let mut left = TESTED_PER_FACE * n + TESTED_FLOOR;
-    grid.overlapping_pairs(&boxes, LOOKED_PER_FACE * n + LOOKED_FLOOR, |a, b| {
-        if left == 0 {
-            return false;
-        }
-        left -= 1;
-        let (a, b) = (a as usize, b as usize);
-        let (i, j) = (tested[a], tested[b]);
-        if faces_intersect(faces[i as usize], &tris[a], faces[j as usize], &tris[b]) {
-            f(i, j);
-        }
-        true
-    })
+#[cfg(test)]
+fn for_each_intersecting_pair(vertices: &[P], faces: &[[u32; 3]], f: impl FnMut(u32, u32)) -> bool {
+    let candidates = Candidates::new(vertices, faces);
+    candidates.for_each_in(faces, 0..candidates.layers(), f)
 }
 
 /// A cell count whose cells are about as wide as the average box, at most
@@ -173,6 +226,7 @@ mod tests {
 
     #[test]
     fn grid_candidates_find_every_pair_brute_force_finds() {
+        let mut cut = false;
         for (v, f) in [
             lattice_soup(400, 9),
             // Small scattered triangles and long slivers.
@@ -207,7 +261,21 @@ mod tests {
                 complete: true,
             };
             assert_eq!(self_intersecting_pairs(&v, &f), all);
+            // Cut into ranges of layers, each pair is found in exactly one.
+            let candidates = Candidates::new(&v, &f);
+            let layers = candidates.layers();
+            cut |= layers >= 3;
+            for parts in [2, 3, layers].into_iter().filter(|&p| p <= layers) {
+                let mut got = Vec::new();
+                for k in 0..parts {
+                    let range = layers * k / parts..layers * (k + 1) / parts;
+                    assert!(candidates.for_each_in(&f, range, |i, j| got.push((i, j))));
+                }
+                got.sort_unstable();
+                assert_eq!(got, want, "{parts} parts");
+            }
         }
+        assert!(cut, "no mesh had three layers to cut");
     }
 
     #[test]

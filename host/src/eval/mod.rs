@@ -36,12 +36,17 @@ use crate::progress::run_tasks;
 use distance::{diagonal, mesh_to_point_distances, point_to_mesh_distances, stats};
 pub use distance::{dist2_point_triangle, sample_surface};
 pub use intersect::self_intersecting_pairs;
+use intersect::Crossings;
 pub use quality::min_angle_deg;
 use quality::quality;
 use serde::Serialize;
 use topology::topology;
 use validity::validity;
 use vsaqem_core::Task;
+
+/// Parts the crossing test of [`check_solid_with`] is cut into (ranges of its
+/// grid's layers, each under the test's limits), run beside the topology.
+const CROSSING_PARTS: usize = 4;
 
 /// Surface samples of the mesh -> points direction unless told otherwise.
 pub const DEFAULT_SAMPLES: usize = 100_000;
@@ -345,10 +350,34 @@ pub fn check_solid_with(
         .copied()
         .filter(|t| t.iter().all(|&i| (i as usize) < nv))
         .collect();
-    let mut crossings = Job::new(|| self_intersecting_pairs(vertices, &valid));
-    let mut surface = Job::new(|| topology(vertices, &valid));
-    run(&mut [&mut crossings, &mut surface]);
-    let (crossings, surface) = (crossings.finish(), surface.finish());
+    // The crossing test cut into ranges of its grid's layers, beside the
+    // topology: one task for it left the other thread idle most of the check.
+    let candidates = intersect::Candidates::new(vertices, &valid);
+    let layers = candidates.layers();
+    let parts = CROSSING_PARTS.min(layers.max(1));
+    let (candidates, valid_ref) = (&candidates, &valid);
+    let mut crossings: Vec<_> = (0..parts)
+        .map(|k| {
+            let range = layers * k / parts..layers * (k + 1) / parts;
+            Job::new(move || candidates.crossings_in(valid_ref, range.clone()))
+        })
+        .collect();
+    let mut surface = Job::new(|| topology(vertices, valid_ref));
+    let mut tasks: Vec<&mut dyn Task> = crossings.iter_mut().map(|j| j as &mut dyn Task).collect();
+    tasks.push(&mut surface);
+    run(&mut tasks);
+    drop(tasks);
+    let crossings = crossings.into_iter().map(Job::finish).fold(
+        Crossings {
+            pairs: 0,
+            complete: true,
+        },
+        |a, b| Crossings {
+            pairs: a.pairs + b.pairs,
+            complete: a.complete && b.complete,
+        },
+    );
+    let surface = surface.finish();
     let validity = validity(vertices, &valid, &surface, crossings);
     let mut topology = surface.topology;
     topology.faces = triangles.len();
