@@ -318,3 +318,31 @@ fn densifying_adds_at_most_the_fraction_of_the_vertices_rounded_up() {
         assert!(b * 10 >= nv && b * 10 < nv + 10, "{nv}: {b}");
     }
 }
+
+/// The edge table is the whole table sorted: random faces over few vertices
+/// (so some share edges, repeat an index or are copies), a fan of 40 faces
+/// around one vertex (its edges more than the insertion sort's 16), and none.
+#[test]
+fn the_edge_table_is_every_edge_sorted() {
+    let mut state = 7u64;
+    let mut next = |n: u32| {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((state >> 33) % n as u64) as u32
+    };
+    let random: Vec<[u32; 3]> = (0..500).map(|_| [next(60), next(60), next(60)]).collect();
+    let fan: Vec<[u32; 3]> = (0..40).map(|i| [7, 8 + (i + 1) % 40, 8 + i]).collect();
+    for faces in [random, fan, Vec::new()] {
+        let mut want: Vec<(u64, u32)> = faces
+            .iter()
+            .enumerate()
+            .flat_map(|(f, t)| (0..3).map(move |k| (key(t[k], t[(k + 1) % 3]), f as u32)))
+            .collect();
+        want.sort_unstable();
+        let mut buf = vec![MaybeUninit::uninit(); 1 << 16];
+        let arena = Arena::new(&mut buf);
+        let got = arena.scratch(|s| edge_table(s, &faces).map(|t| t.to_vec()));
+        assert_eq!(got.unwrap(), want);
+    }
+}
