@@ -108,6 +108,11 @@ fn a_table_that_is_not_one_for_the_points_is_refused_by_row_and_entry() {
     let mut far = knn.clone();
     far[1999 * k] = 2000;
     check(&far, 1999, 2000);
+    // Of two, the one in the lower row (the rows are checked in parallel tasks).
+    let mut two = knn.clone();
+    two[1500 * k + 1] = 1500;
+    two[30 * k + 5] = 9999;
+    check(&two, 30, 9999);
     let e = Error::BadNeighbourTable { row: 7, entry: 7 }.to_string();
     assert!(e.contains("row 7") && e.contains("entry 7"), "{e}");
 }

@@ -440,13 +440,22 @@ pub fn try_neighbours_from_in<'a>(
     let n = points.len();
     usable_k(k, n)?;
     check_table_len(knn.len(), n, k)?;
-    for (i, row) in knn.chunks_exact(k).enumerate() {
-        if let Some(&j) = row.iter().find(|&&j| j as usize >= n || j as usize == i) {
-            return Err(Error::BadNeighbourTable {
-                row: i,
-                entry: j as u64,
-            });
-        }
+    // The first bad entry of each task's rows, in parallel tasks; the first
+    // task's with one names it.
+    let bad = parallel::ranges(&*progress, n, |rows| {
+        rows.map(|i| (i, &knn[i * k..(i + 1) * k]))
+            .find_map(|(i, row)| {
+                Some((
+                    i,
+                    *row.iter().find(|&&j| j as usize >= n || j as usize == i)?,
+                ))
+            })
+    });
+    if let Some((i, j)) = bad.into_iter().flatten().next() {
+        return Err(Error::BadNeighbourTable {
+            row: i,
+            entry: j as u64,
+        });
     }
     tick(progress, Stage::Neighbours, 0, n as u64)?;
     let (rev_start, rev) = reverse_edges_in(arena, knn, k, room, &*progress)?;
@@ -807,13 +816,15 @@ fn reverse_edges_in<'a>(
                 }
             }
         });
+        // The set bits only (a third of k a point, typically), lowest first.
         let one_way_of = |i: usize| {
-            let bits = one_way[i];
-            knn[i * k..(i + 1) * k]
-                .iter()
-                .enumerate()
-                .filter(move |&(b, _)| bits >> b & 1 == 1)
-                .map(|(_, &j)| j as usize)
+            let row = &knn[i * k..(i + 1) * k];
+            let mut bits = one_way[i];
+            core::iter::from_fn(move || {
+                let b = bits.trailing_zeros() as usize;
+                bits &= bits.wrapping_sub(1);
+                row.get(b).map(|&j| j as usize)
+            })
         };
         for i in 0..n {
             for j in one_way_of(i) {
