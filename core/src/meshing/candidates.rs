@@ -491,46 +491,73 @@ fn candidates_counting_in<'a, 'b, A: Alloc<'b>>(
     //    A cluster joined to two clusters only (a strip at the ragged edge of a
     //    scan) is in no 3-cycle and could never be covered: the edge between its
     //    two neighbours closes its triangle.
-    let for_each_diagonal = |f: &mut dyn FnMut(u32, u32)| {
-        for a in 0..m as u32 {
-            let ring = around(a);
-            if let [b, d] = *ring {
-                if !adjacent(b, d) {
-                    f(b, d);
-                }
+    let diagonals_of = |a: u32, f: &mut dyn FnMut(u32, u32)| {
+        let ring = around(a);
+        if let [b, d] = *ring {
+            if !adjacent(b, d) {
+                f(b, d);
             }
-            for (i, &b) in ring.iter().enumerate() {
-                for &d in &ring[i + 1..] {
-                    if adjacent(b, d) {
-                        continue;
-                    }
-                    let (mut x, mut y) = (around(b), around(d));
-                    while let (Some(&c1), Some(&c2)) = (x.first(), y.first()) {
-                        if c1 < c2 {
-                            x = &x[1..];
-                        } else if c2 < c1 {
-                            y = &y[1..];
-                        } else {
-                            if c1 > a && !adjacent(a, c1) {
-                                f(a, c1);
-                                f(b, d);
-                            }
-                            x = &x[1..];
-                            y = &y[1..];
+        }
+        for (i, &b) in ring.iter().enumerate() {
+            for &d in &ring[i + 1..] {
+                if adjacent(b, d) {
+                    continue;
+                }
+                let (mut x, mut y) = (around(b), around(d));
+                while let (Some(&c1), Some(&c2)) = (x.first(), y.first()) {
+                    if c1 < c2 {
+                        x = &x[1..];
+                    } else if c2 < c1 {
+                        y = &y[1..];
+                    } else {
+                        if c1 > a && !adjacent(a, c1) {
+                            f(a, c1);
+                            f(b, d);
                         }
+                        x = &x[1..];
+                        y = &y[1..];
                     }
                 }
             }
         }
     };
-    let mut nd = 0usize;
-    for_each_diagonal(&mut |_, _| nd += 1);
+    // Each cluster's diagonals counted, then listed, in parallel tasks over
+    // the clusters: the list of one pass over them, in order.
+    let diagonal_start = arena.try_alloc_slice::<u32>(m + 1, 0)?;
+    parallel::rows(
+        hooks,
+        &mut diagonal_start[1..],
+        1,
+        |clusters, out: &mut [u32]| {
+            for (a, count) in clusters.zip(out.iter_mut()) {
+                diagonals_of(a as u32, &mut |_, _| *count += 1);
+            }
+        },
+    );
+    for a in 0..m {
+        diagonal_start[a + 1] += diagonal_start[a];
+    }
+    let nd = diagonal_start[m] as usize;
     let diagonals = arena.try_alloc_slice::<[u32; 2]>(nd, [0, 0])?;
-    let mut w = 0;
-    for_each_diagonal(&mut |x, y| {
-        diagonals[w] = if x < y { [x, y] } else { [y, x] };
-        w += 1;
-    });
+    let diagonal_start = &*diagonal_start;
+    let at = |a: usize| diagonal_start[a.min(m)] as usize;
+    parallel::segments(
+        hooks,
+        diagonals,
+        m,
+        at,
+        |clusters, part: &mut [[u32; 2]]| {
+            let mut w = 0;
+            for a in clusters {
+                diagonals_of(a as u32, &mut |x, y| {
+                    if let Some(slot) = part.get_mut(w) {
+                        *slot = if x < y { [x, y] } else { [y, x] };
+                    }
+                    w += 1;
+                });
+            }
+        },
+    );
     diagonals.sort_unstable();
     let mut unique = 0;
     for i in 0..nd {
