@@ -149,11 +149,12 @@ const NECK_ROUNDS: u32 = 8;
 /// Rounds of cutting out crossing or folded faces at most.
 const UNTANGLE_ROUNDS: u32 = 8;
 
-/// Faces of an edge, found by binary search in the sorted `(edge key, face)` table.
+/// Faces of an edge, found by binary search in the sorted `(edge key, face)`
+/// table; the run's end by a scan (an edge has one or two faces, rarely more).
 pub(super) fn faces_of(table: &[(u64, u32)], key: u64) -> &[(u64, u32)] {
     let lo = table.partition_point(|x| x.0 < key);
-    let hi = lo + table[lo..].partition_point(|x| x.0 == key);
-    &table[lo..hi]
+    let len = table[lo..].iter().take_while(|x| x.0 == key).count();
+    &table[lo..lo + len]
 }
 
 pub(super) fn key(u: u32, v: u32) -> u64 {
