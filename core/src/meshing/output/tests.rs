@@ -324,14 +324,10 @@ fn densifying_adds_at_most_the_fraction_of_the_vertices_rounded_up() {
 /// around one vertex (its edges more than the insertion sort's 16), and none.
 #[test]
 fn the_edge_table_is_every_edge_sorted() {
-    let mut state = 7u64;
-    let mut next = |n: u32| {
-        state = state
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((state >> 33) % n as u64) as u32
-    };
-    let random: Vec<[u32; 3]> = (0..500).map(|_| [next(60), next(60), next(60)]).collect();
+    let mut rng = crate::rng::Rng::new(7);
+    let random: Vec<[u32; 3]> = (0..500)
+        .map(|_| [rng.below(60), rng.below(60), rng.below(60)])
+        .collect();
     let fan: Vec<[u32; 3]> = (0..40).map(|i| [7, 8 + (i + 1) % 40, 8 + i]).collect();
     for faces in [random, fan, Vec::new()] {
         let mut want: Vec<(u64, u32)> = faces
