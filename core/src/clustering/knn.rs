@@ -442,14 +442,12 @@ pub fn try_neighbours_from_in<'a>(
     check_table_len(knn.len(), n, k)?;
     // The first bad entry of each task's rows, in parallel tasks; the first
     // task's with one names it.
-    let bad = parallel::ranges(&*progress, n, |rows| {
-        rows.map(|i| (i, &knn[i * k..(i + 1) * k]))
-            .find_map(|(i, row)| {
-                Some((
-                    i,
-                    *row.iter().find(|&&j| j as usize >= n || j as usize == i)?,
-                ))
-            })
+    let bad = parallel::ranges(&*progress, n, |mut rows| {
+        rows.find_map(|i| {
+            let row = &knn[i * k..(i + 1) * k];
+            let j = *row.iter().find(|&&j| j as usize >= n || j as usize == i)?;
+            Some((i, j))
+        })
     });
     if let Some((i, j)) = bad.into_iter().flatten().next() {
         return Err(Error::BadNeighbourTable {

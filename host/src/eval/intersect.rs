@@ -150,15 +150,6 @@ impl Candidates {
     }
 }
 
-/// Calls `f(i, j)`, `i < j` indices into `faces`, once for every intersecting pair,
-/// as [`self_intersecting_pairs`] counts them; `false` when it stopped at its
-/// limits.
-#[cfg(test)]
-fn for_each_intersecting_pair(vertices: &[P], faces: &[[u32; 3]], f: impl FnMut(u32, u32)) -> bool {
-    let candidates = Candidates::new(vertices, faces);
-    candidates.for_each_in(faces, 0..candidates.layers(), f)
-}
-
 /// A cell count whose cells are about as wide as the average box, at most
 /// [`CELLS_PER_FACE`] per box.
 fn face_sized_cells(boxes: &[(P, P)]) -> f64 {
@@ -251,8 +242,10 @@ mod tests {
                     }
                 }
             }
+            let candidates = Candidates::new(&v, &f);
+            let layers = candidates.layers();
             let mut got = Vec::new();
-            for_each_intersecting_pair(&v, &f, |i, j| got.push((i, j)));
+            assert!(candidates.for_each_in(&f, 0..layers, |i, j| got.push((i, j))));
             got.sort_unstable();
             assert!(want.len() > 50, "{}", want.len());
             assert_eq!(got, want);
@@ -262,8 +255,6 @@ mod tests {
             };
             assert_eq!(self_intersecting_pairs(&v, &f), all);
             // Cut into ranges of layers, each pair is found in exactly one.
-            let candidates = Candidates::new(&v, &f);
-            let layers = candidates.layers();
             cut |= layers >= 3;
             for parts in [2, 3, layers].into_iter().filter(|&p| p <= layers) {
                 let mut got = Vec::new();

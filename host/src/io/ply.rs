@@ -29,6 +29,17 @@ enum Kind {
     List { len: Scalar, item: Scalar },
 }
 
+impl Kind {
+    /// Bytes of the property in a binary row (a list's length only, when
+    /// empty).
+    fn min_bytes(self) -> usize {
+        match self {
+            Kind::Scalar(t) => t.size(),
+            Kind::List { len, .. } => len.size(),
+        }
+    }
+}
+
 #[derive(Debug)]
 struct Property {
     name: String,
@@ -51,13 +62,7 @@ impl Element {
 
     /// Bytes of a binary row with every list empty.
     fn min_row_bytes(&self) -> usize {
-        self.props
-            .iter()
-            .map(|p| match p.kind {
-                Kind::Scalar(t) => t.size(),
-                Kind::List { len, .. } => len.size(),
-            })
-            .sum()
+        self.props.iter().map(|p| p.kind.min_bytes()).sum()
     }
 
     /// `"vertices"` for the vertex element, `"'name' elements"` otherwise.
@@ -379,10 +384,7 @@ fn walk_binary(
                 if let (Kind::Scalar(t), Role::Slot(k)) = (p.kind, *role) {
                     wanted.push((offset, t, k));
                 }
-                offset += match p.kind {
-                    Kind::Scalar(t) => t.size(),
-                    Kind::List { len, .. } => len.size(),
-                };
+                offset += p.kind.min_bytes();
             }
             // Checked above: count * min_row <= remaining.
             let body = &data[pos..pos + el.count as usize * min_row];

@@ -210,19 +210,7 @@ pub(super) fn edge_table<'s, 'b, S: Alloc<'b>>(
         }
         let mut from = 0;
         for &e in end.iter().skip(1).chain([&(table.len() as u32)]) {
-            let run = &mut table[from..e as usize];
-            if run.len() > 16 {
-                run.sort_unstable();
-            } else {
-                // A vertex has a few edges: insertion sort.
-                for i in 1..run.len() {
-                    let mut j = i;
-                    while j > 0 && run[j - 1] > run[j] {
-                        run.swap(j - 1, j);
-                        j -= 1;
-                    }
-                }
-            }
+            table[from..e as usize].sort_unstable();
             from = e as usize;
         }
         Ok(())

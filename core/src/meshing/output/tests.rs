@@ -321,7 +321,7 @@ fn densifying_adds_at_most_the_fraction_of_the_vertices_rounded_up() {
 
 /// The edge table is the whole table sorted: random faces over few vertices
 /// (so some share edges, repeat an index or are copies), a fan of 40 faces
-/// around one vertex (its edges more than the insertion sort's 16), and none.
+/// around one vertex (80 edges with it as their lower vertex), and none.
 #[test]
 fn the_edge_table_is_every_edge_sorted() {
     let mut rng = crate::rng::Rng::new(7);
