@@ -34,7 +34,8 @@
 //!   found them, until no face is refused.
 //!
 //! Memory: scratch only, O(n + V + F): 4 bytes per point (its nearest face,
-//! where the next round's search starts), 73 bytes per vertex
+//! where the next round's search starts; with more than one thread, and room,
+//! 12 more for its barycentric coordinates there), 73 bytes per vertex
 //! (anchors, positions at the round's start, reach, a fixed flag, the
 //! accumulated normal equations, the start of its face list) and 36 per face
 //! (the matrix's off-diagonal terms, the vertex-to-face lists), plus the face
@@ -44,7 +45,7 @@
 //! take as long) plus O(SWEEPS × F) for the solve.
 //! Deterministic: fixed orders throughout.
 
-use crate::arena::Alloc;
+use crate::arena::{padded_bytes, Alloc};
 use crate::error::Result;
 use crate::math::{closest_on_triangle, dist2, dot, is_finite3, norm, sub, V3};
 use crate::meshing::face_grid::FaceGrid;
@@ -194,24 +195,46 @@ pub fn try_fit_vertices_in<'b, A: Alloc<'b>>(
             weight.fill(0);
             off.fill([0.0; 3]);
             s.scratch(|t| -> Result<()> {
-                let grid = FaceGrid::try_new_in(t, &*vertices, triangles)?;
+                let vertices = &*vertices;
+                let grid = FaceGrid::try_new_in(t, vertices, triangles)?;
                 // The searches in parallel (each point's nearest face into its
-                // hint), then the sums in point order.
-                parallel::rows(hooks, &mut hints[..], 1, |items, h: &mut [u32]| {
-                    for (p, h) in points[items].iter().zip(h.iter_mut()) {
-                        let hint = (*h != u32::MAX).then_some(*h);
-                        *h = grid.nearest_from(*p, hint).map_or(u32::MAX, |(f, _)| f);
-                    }
-                });
-                for (&p, &f) in points.iter().zip(hints.iter()) {
-                    if f == u32::MAX {
-                        continue;
-                    }
+                // hint), then the sums in point order. With more than one
+                // thread, and room, the tasks also keep each point's
+                // barycentric coordinates there (12 bytes a point), leaving
+                // the calling thread only the sums; else it works them out
+                // as it sums. The same function of the same corners either
+                // way: the sums are the same, bit for bit.
+                let n = points.len();
+                let keep = hooks.threads() > 1 && t.available() >= padded_bytes::<V3>(n);
+                let betas = t.try_alloc_slice::<V3>(if keep { n } else { 0 }, [0.0; 3])?;
+                let nearest = |p: V3, h: &mut u32| {
+                    let hint = (*h != u32::MAX).then_some(*h);
+                    *h = grid.nearest_from(p, hint).map_or(u32::MAX, |(f, _)| f);
+                };
+                // The corners of face `f` when it is in range and sound.
+                let sound = |f: u32| corners_of(vertices, *triangles.get(f as usize)?);
+                let coords = |p: V3, f: u32| {
+                    let c = sound(f)?;
+                    Some(closest_on_triangle(p, c[0], c[1], c[2]).1)
+                };
+                if keep {
+                    parallel::pairs(hooks, &mut hints[..], betas, |items, h, b| {
+                        for ((&p, h), b) in points[items].iter().zip(h).zip(b) {
+                            nearest(p, h);
+                            *b = coords(p, *h).unwrap_or([0.0; 3]);
+                        }
+                    });
+                } else {
+                    parallel::rows(hooks, &mut hints[..], 1, |items, h: &mut [u32]| {
+                        for (&p, h) in points[items].iter().zip(h.iter_mut()) {
+                            nearest(p, h);
+                        }
+                    });
+                }
+                // Point `p`'s share of the normal equations, on face `f`
+                // (in range, its corners sound) at coordinates `beta`.
+                let mut sum = |p: V3, f: u32, beta: V3| {
                     let face = triangles[f as usize];
-                    let Some(c) = corners_of(vertices, face) else {
-                        continue;
-                    };
-                    let (_, beta) = closest_on_triangle(p, c[0], c[1], c[2]);
                     for k in 0..3 {
                         let (v, b) = (face[k] as usize, beta[k] as f64);
                         diag[v] += b * b;
@@ -220,6 +243,19 @@ pub fn try_fit_vertices_in<'b, A: Alloc<'b>>(
                         }
                         weight[v] += (b > 0.0) as u32;
                         off[f as usize][k] += b * beta[(k + 1) % 3] as f64;
+                    }
+                };
+                if keep {
+                    for ((&p, &f), &beta) in points.iter().zip(hints.iter()).zip(&*betas) {
+                        if sound(f).is_some() {
+                            sum(p, f, beta);
+                        }
+                    }
+                } else {
+                    for (&p, &f) in points.iter().zip(hints.iter()) {
+                        if let Some(c) = sound(f) {
+                            sum(p, f, closest_on_triangle(p, c[0], c[1], c[2]).1);
+                        }
                     }
                 }
                 Ok(())
@@ -472,6 +508,59 @@ mod tests {
                 .map(|(a, b)| dist2(*a, *b))
                 .fold(0.0, f32::max);
             assert!(far < 1e-40, "lambda {lambda}: a vertex moved {far}");
+        }
+    }
+
+    /// With more than one thread the search tasks keep each point's
+    /// barycentric coordinates: the vertices are the same, bit for bit, as
+    /// when the calling thread works them out (one thread, or no room for
+    /// them), on points above and below a bumpy grid and scattered far off.
+    #[test]
+    fn kept_coordinates_give_the_fit_of_one_thread() {
+        use crate::progress::Claimed;
+        let (mut v0, f) = grid(9);
+        let mut rng = Rng::new(11);
+        for v in v0.iter_mut() {
+            v[2] = (rng.unit_f64() as f32 - 0.5) * 0.2;
+        }
+        let mut pts = layer(9, 0.05);
+        for p in pts.iter_mut().step_by(3) {
+            p[2] = -p[2] + (rng.unit_f64() as f32 - 0.5) * 0.3;
+        }
+        pts.extend((0..200).map(|_| [0; 3].map(|_| (rng.unit_f64() as f32 - 0.5) * 30.0)));
+        let run = |hooks: &dyn Progress, room: usize| {
+            let mut buf = vec![MaybeUninit::uninit(); room];
+            let arena = Arena::new(&mut buf);
+            let mut v = v0.clone();
+            let stats = try_fit_vertices_in(&arena, &pts, &mut v, &f, 3, LAMBDA, None, hooks);
+            assert_eq!(arena.used(), 0);
+            (stats.unwrap(), v)
+        };
+        let (stats, want) = run(&Silent, 1 << 20);
+        assert!(stats.moved > 30, "{stats:?}");
+        // The least room one thread fits in (a search over sizes): none left
+        // for the coordinates, so the calling thread works them out.
+        let fits = |room: usize| {
+            let mut buf = vec![MaybeUninit::uninit(); room];
+            let arena = Arena::new(&mut buf);
+            let mut v = v0.clone();
+            try_fit_vertices_in(&arena, &pts, &mut v, &f, 3, LAMBDA, None, &Silent).is_ok()
+        };
+        let (mut lo, mut hi) = (0usize, 1 << 20);
+        while hi - lo > 1 {
+            let mid = (lo + hi) / 2;
+            if fits(mid) {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        let tight = hi;
+        assert!(tight + 12 * pts.len() < 1 << 20);
+        for (threads, room) in [(2, 1 << 20), (3, 1 << 20), (8, tight)] {
+            let (s, v) = run(&Claimed::backwards(threads), room);
+            assert_eq!(s, stats, "{threads} threads");
+            assert!(v == want, "{threads} threads: the vertices differ");
         }
     }
 
