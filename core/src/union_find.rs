@@ -37,6 +37,12 @@ impl<'a> UnionFind<'a> {
         UnionFind { parent }
     }
 
+    /// The sets whose roots `roots` holds ([`UnionFind::into_roots`]'s
+    /// result: entry `i` its set's lowest element).
+    pub fn from_roots(roots: &'a mut [u32]) -> Self {
+        UnionFind { parent: roots }
+    }
+
     /// Singletons `0..n` in a slice from `arena`.
     pub fn try_new_in<'b, A: Alloc<'b>>(arena: &'a A, n: usize) -> Result<Self> {
         Ok(Self::new(arena.try_alloc_slice::<u32>(n, 0)?))

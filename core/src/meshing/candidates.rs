@@ -167,15 +167,21 @@ pub fn try_facets_per_edge_in<'a, 'b, A: Alloc<'b>>(
 /// The piece of the data each cluster lies in (`rep.len()` clusters): two are
 /// linked when a point of one has a point of the other among its k nearest
 /// (`nb`), and a merged cluster lies in its representative's. Each piece is
-/// named by its lowest cluster; labels `>= rep.len()` are skipped. O(n k)
-/// time, `rep.len()` scratch.
+/// named by its lowest cluster; labels `>= rep.len()` are skipped. With two
+/// threads or more in `hooks` and at least [`PIECE_PART`] points a thread, the
+/// points are cut into contiguous parts, one a thread, each joining its
+/// points' links in sets of its own; the calling thread then joins the parts'
+/// sets. The sets are the same whatever the cut, and so are their lowest
+/// clusters. O(n k) time, `rep.len()` scratch a part.
 pub fn try_pieces_in<'a, 'b, A: Alloc<'b>>(
     arena: &'a A,
     nb: &Neighbours,
     labels: &[u32],
     rep: &[u32],
+    hooks: &dyn Progress,
 ) -> Result<&'a [u32]> {
     let m = rep.len();
+    let n = labels.len();
     let group = |i: u32| {
         labels
             .get(i as usize)
@@ -184,13 +190,32 @@ pub fn try_pieces_in<'a, 'b, A: Alloc<'b>>(
     };
     let piece = arena.try_alloc_slice::<u32>(m, 0)?;
     arena.scratch(|s| -> Result<()> {
-        let mut sets = UnionFind::try_new_in(s, m)?;
-        for i in 0..labels.len() {
-            let Some(a) = group(i as u32) else { continue };
-            // Most neighbours lie in the point's own cluster: no find for
-            // those (the sets, and so the roots, are the same).
-            let others = nb.of(i).iter().filter_map(|&q| group(q));
-            sets.union_all(a, others.filter(|&b| b != a));
+        let parts = hooks.threads().min(PIECE_PARTS).min(n / PIECE_PART).max(1);
+        let roots = s.try_alloc_slice::<u32>(parts * m, 0)?;
+        if m > 0 {
+            parallel::rows(hooks, roots, m, |items, rows: &mut [u32]| {
+                for (part, row) in items.zip(rows.chunks_exact_mut(m)) {
+                    let mut sets = UnionFind::new(row);
+                    for i in part * n / parts..(part + 1) * n / parts {
+                        let Some(a) = group(i as u32) else { continue };
+                        // Most neighbours lie in the point's own cluster: no
+                        // find for those (the sets, and so the roots, are the
+                        // same).
+                        let others = nb.of(i).iter().filter_map(|&q| group(q));
+                        sets.union_all(a, others.filter(|&b| b != a));
+                    }
+                    sets.into_roots();
+                }
+            });
+        }
+        let (first, rest) = roots.split_at_mut(m);
+        let mut sets = UnionFind::from_roots(first);
+        for row in rest.chunks_exact(m.max(1)) {
+            for (i, &r) in row.iter().enumerate() {
+                if r != i as u32 {
+                    sets.union(i as u32, r);
+                }
+            }
         }
         for (x, &r) in piece.iter_mut().zip(rep) {
             *x = sets.find(r);
@@ -199,6 +224,11 @@ pub fn try_pieces_in<'a, 'b, A: Alloc<'b>>(
     })?;
     Ok(piece)
 }
+
+/// Most parts of [`try_pieces_in`] (one a thread).
+const PIECE_PARTS: usize = 8;
+/// Fewest points a part of [`try_pieces_in`]; fewer are joined as one.
+const PIECE_PART: usize = 4096;
 
 /// Neighbour links (a point of one cluster, a point of the other, neighbours)
 /// two clusters need to be candidate-adjacent.

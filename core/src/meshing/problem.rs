@@ -64,7 +64,7 @@ pub(crate) fn try_problem_in<'s, 'b, A: Alloc<'b>>(
     tick(progress, Stage::Candidates, 0, 1)?;
     let (rep, merged) = candidates::try_merge_in(s, gens, diag)?;
     let members = candidates::try_members_in(s, c.labels, rep)?;
-    let piece = candidates::try_pieces_in(s, nb, c.labels, rep)?;
+    let piece = candidates::try_pieces_in(s, nb, c.labels, rep, &*progress)?;
     let cand = candidates::try_candidates_in(
         s, &*progress, nb, c.labels, rep, merged, &members, gens, diag,
     )?;

@@ -134,11 +134,53 @@ fn clusters_are_in_one_piece_of_the_data_only_when_their_points_are_linked() {
     let mut buf = vec![MaybeUninit::uninit(); 1 << 20];
     let arena = Arena::new(&mut buf);
     let nb = try_neighbours_in(&arena, &points, 8, &mut Silent).unwrap();
-    let piece = try_pieces_in(&arena, &nb, &labels, &[0, 1, 2, 3]).unwrap();
+    let piece = try_pieces_in(&arena, &nb, &labels, &[0, 1, 2, 3], &Silent).unwrap();
     assert_eq!(piece, &[0, 0, 2, 3]);
     // A merged cluster lies in its representative's piece.
-    let piece = try_pieces_in(&arena, &nb, &labels, &[0, 1, 2, 2]).unwrap();
+    let piece = try_pieces_in(&arena, &nb, &labels, &[0, 1, 2, 2], &Silent).unwrap();
     assert_eq!(piece, &[0, 0, 2, 2]);
+}
+
+/// The pieces are the same whether the points are cut into parts (one a
+/// thread) or not: five patches far apart, twelve clusters in strips across
+/// each, one cluster merged into a cluster of another patch (joining the
+/// two), one merged cluster with no points, one without points alone.
+#[test]
+fn pieces_are_the_same_for_every_thread_count() {
+    use crate::clustering::knn::try_neighbours_in;
+    use crate::meshing::candidates::try_pieces_in;
+    use crate::progress::{Claimed, Silent};
+    let (cols, rows) = (60usize, 120usize);
+    let mut points = Vec::new();
+    let mut labels = Vec::new();
+    for patch in 0..5usize {
+        for i in 0..cols * rows {
+            let (x, y) = (i % cols, i / cols);
+            points.push([patch as f32 * 100.0 + x as f32 * 0.1, y as f32 * 0.1, 0.0]);
+            labels.push((patch * 12 + y / 10) as u32);
+        }
+    }
+    let mut rep: Vec<u32> = (0..62).collect();
+    rep[30] = 7;
+    rep[61] = 5;
+    let mut want = vec![0u32; 62];
+    for (c, w) in want.iter_mut().enumerate() {
+        *w = match c {
+            0..=11 | 24..=35 | 61 => 0,
+            60 => 60,
+            _ => (c / 12 * 12) as u32,
+        };
+    }
+    let mut buf = vec![MaybeUninit::uninit(); 8 << 20];
+    let arena = Arena::new(&mut buf);
+    let nb = try_neighbours_in(&arena, &points, 8, &mut Silent).unwrap();
+    let piece = try_pieces_in(&arena, &nb, &labels, &rep, &Silent).unwrap();
+    assert_eq!(piece, &want[..]);
+    for threads in [2, 3, 8] {
+        let piece =
+            try_pieces_in(&arena, &nb, &labels, &rep, &Claimed::backwards(threads)).unwrap();
+        assert_eq!(piece, &want[..], "{threads} threads");
+    }
 }
 
 #[test]
