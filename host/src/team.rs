@@ -53,6 +53,9 @@ struct Shared {
     panicked: AtomicBool,
     /// Helpers asleep wait here for the next round (or the end).
     wake: Condvar,
+    /// Helpers asleep on `wake`, counted under the round's lock: a round is
+    /// published with a wake-up (a system call) only when one is.
+    sleepers: AtomicUsize,
     /// The team is being dropped.
     stop: AtomicBool,
     /// How long a helper spins before it sleeps.
@@ -91,6 +94,7 @@ impl Team {
             finished: AtomicUsize::new(0),
             panicked: AtomicBool::new(false),
             wake: Condvar::new(),
+            sleepers: AtomicUsize::new(0),
             stop: AtomicBool::new(false),
             spin: match std::thread::available_parallelism() {
                 Ok(cores) if threads <= cores.get() => SPIN,
@@ -139,7 +143,11 @@ impl Team {
             shared.finished.store(0, Ordering::Relaxed);
             shared.left.store(tag(round.number, len), Ordering::Release);
             shared.number.store(round.number, Ordering::Release);
-            shared.wake.notify_all();
+            // A helper counts itself asleep under this lock before it
+            // waits, after seeing no new round: none is missed.
+            if shared.sleepers.load(Ordering::Relaxed) > 0 {
+                shared.wake.notify_all();
+            }
             round
         };
         work(shared, round);
@@ -237,9 +245,11 @@ fn help(shared: &Shared) {
             spins = spins.wrapping_add(1);
             if spins % 1024 == 0 && started.elapsed() >= spin {
                 let mut round = lock(&shared.round);
+                shared.sleepers.fetch_add(1, Ordering::Relaxed);
                 while round.number == done && !shared.stop.load(Ordering::Acquire) {
                     round = shared.wake.wait(round).unwrap_or_else(|e| e.into_inner());
                 }
+                shared.sleepers.fetch_sub(1, Ordering::Relaxed);
                 break;
             }
         }
@@ -299,6 +309,58 @@ mod tests {
             assert!(counts.iter().all(|c| c.0 == 1));
             // Longer than the helpers spin.
             std::thread::sleep(SPIN * 3);
+        }
+    }
+
+    /// Waits (up to 10 s) until `count` tasks of its kind are running at
+    /// once; `met` tells whether they were.
+    struct Meet<'a> {
+        arrived: &'a AtomicUsize,
+        count: usize,
+        met: bool,
+    }
+
+    impl Task for Meet<'_> {
+        fn run(&mut self) {
+            self.arrived.fetch_add(1, Ordering::AcqRel);
+            let start = Instant::now();
+            while self.arrived.load(Ordering::Acquire) < self.count {
+                if start.elapsed() > Duration::from_secs(10) {
+                    return;
+                }
+                std::hint::spin_loop();
+            }
+            self.met = true;
+        }
+    }
+
+    /// Rounds that only finish with every helper's help: a helper asleep
+    /// (after more than its spin without work) is woken for each, also when
+    /// the rounds come back to back or after a pause.
+    #[test]
+    fn a_round_wakes_the_helpers_asleep() {
+        for threads in [2, 3] {
+            let team = Team::new(threads).expect("threads start");
+            for round in 0..6 {
+                if round % 2 == 0 {
+                    std::thread::sleep(SPIN * 3);
+                }
+                let arrived = AtomicUsize::new(0);
+                let mut meets: Vec<Meet> = (0..threads)
+                    .map(|_| Meet {
+                        arrived: &arrived,
+                        count: threads,
+                        met: false,
+                    })
+                    .collect();
+                let mut tasks: Vec<&mut dyn Task> =
+                    meets.iter_mut().map(|m| m as &mut dyn Task).collect();
+                team.run(&mut tasks);
+                assert!(
+                    meets.iter().all(|m| m.met),
+                    "{threads} threads, round {round}"
+                );
+            }
         }
     }
 
