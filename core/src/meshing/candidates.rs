@@ -168,7 +168,7 @@ pub fn try_facets_per_edge_in<'a, 'b, A: Alloc<'b>>(
 /// linked when a point of one has a point of the other among its k nearest
 /// (`nb`), and a merged cluster lies in its representative's. Each piece is
 /// named by its lowest cluster; labels `>= rep.len()` are skipped. With two
-/// threads or more in `hooks` and at least [`PIECE_PART`] points a thread, the
+/// threads or more in `hooks` and at least 4,096 points a thread, the
 /// points are cut into contiguous parts, one a thread, each joining its
 /// points' links in sets of its own; the calling thread then joins the parts'
 /// sets. The sets are the same whatever the cut, and so are their lowest
