@@ -131,8 +131,8 @@ where
     L: Fn(usize, u32) -> bool + Sync,
 {
     let n = parent.len();
-    let parts = hooks.threads().min(MAX_PARTS).min(n / MIN_PART);
-    let per = n.div_ceil(parts.max(1));
+    let parts = parts_of(hooks, n);
+    let per = n.div_ceil(parts);
     let part_of = |i: usize| {
         let start = i / per * per;
         start..(start + per).min(n)
@@ -172,6 +172,13 @@ where
         }
     }
     sets.into_roots()
+}
+
+/// The contiguous parts a union-find pass over `n` items is cut into: one
+/// a thread of `hooks`, at most [`MAX_PARTS`], each at least [`MIN_PART`]
+/// items; 1 when they are fewer.
+pub(crate) fn parts_of(hooks: &dyn Progress, n: usize) -> usize {
+    hooks.threads().min(MAX_PARTS).min(n / MIN_PART).max(1)
 }
 
 /// One part of [`roots_of_links`]: the elements `start..start + parent.len()`

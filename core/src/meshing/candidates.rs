@@ -25,7 +25,7 @@ use crate::error::Result;
 use crate::math::{cross, dist2, dot, norm, perpendicular, sub, V3};
 use crate::parallel;
 use crate::progress::Progress;
-use crate::union_find::UnionFind;
+use crate::union_find::{self, UnionFind};
 
 /// Points of each cluster, contiguous.
 #[derive(Clone, Copy)]
@@ -190,7 +190,7 @@ pub fn try_pieces_in<'a, 'b, A: Alloc<'b>>(
     };
     let piece = arena.try_alloc_slice::<u32>(m, 0)?;
     arena.scratch(|s| -> Result<()> {
-        let parts = hooks.threads().min(PIECE_PARTS).min(n / PIECE_PART).max(1);
+        let parts = union_find::parts_of(hooks, n);
         let roots = s.try_alloc_slice::<u32>(parts * m, 0)?;
         if m > 0 {
             parallel::rows(hooks, roots, m, |items, rows: &mut [u32]| {
@@ -224,11 +224,6 @@ pub fn try_pieces_in<'a, 'b, A: Alloc<'b>>(
     })?;
     Ok(piece)
 }
-
-/// Most parts of [`try_pieces_in`] (one a thread).
-const PIECE_PARTS: usize = 8;
-/// Fewest points a part of [`try_pieces_in`]; fewer are joined as one.
-const PIECE_PART: usize = 4096;
 
 /// Neighbour links (a point of one cluster, a point of the other, neighbours)
 /// two clusters need to be candidate-adjacent.
