@@ -77,6 +77,15 @@ impl<'a> Neighbours<'a> {
     pub fn symmetric(&self, i: usize) -> impl Iterator<Item = u32> + 'a {
         self.of(i).iter().chain(self.reverse_of(i)).copied()
     }
+
+    /// [`Neighbours::symmetric`] as its two rows, the k nearest and the
+    /// reverse-only, for hot loops: a loop over each row in turn costs
+    /// fewer instructions than the chained iterator (region growing's
+    /// neighbour loops: 45 M fewer a one-thread bunny run, 1.5 %).
+    #[inline]
+    pub fn rows(&self, i: usize) -> [&'a [u32]; 2] {
+        [self.of(i), self.reverse_of(i)]
+    }
 }
 
 /// Cell edge length and counts of the sparse grid.

@@ -1161,32 +1161,38 @@ fn grow_from(ctx: &Ctx, generators: &[V3], f: &mut Front, q: usize) {
     let c = generators[label as usize];
     // Ask for every neighbour's rows before the first is read: the misses
     // then overlap instead of coming one after another.
-    for nbr in ctx.nb.symmetric(q) {
-        crate::hint::prefetch(ctx.nb.knn.as_ptr().wrapping_add(nbr as usize * ctx.nb.k));
-        crate::hint::prefetch(f.labels.as_ptr().wrapping_add(nbr as usize));
-        crate::hint::prefetch(f.tried.as_ptr().wrapping_add(nbr as usize));
-        crate::hint::prefetch(f.guess.as_ptr().wrapping_add(nbr as usize * GUESSES));
-        crate::hint::prefetch(ctx.planes.planes.as_ptr().wrapping_add(nbr as usize));
-    }
-    for nbr in ctx.nb.symmetric(q) {
-        let t = f.labels[nbr as usize];
-        if t & FINAL != 0 || t == label || f.tried[nbr as usize] == label {
-            continue;
+    let rows = ctx.nb.rows(q);
+    for row in rows {
+        for &nbr in row {
+            crate::hint::prefetch(ctx.nb.knn.as_ptr().wrapping_add(nbr as usize * ctx.nb.k));
+            crate::hint::prefetch(f.labels.as_ptr().wrapping_add(nbr as usize));
+            crate::hint::prefetch(f.tried.as_ptr().wrapping_add(nbr as usize));
+            crate::hint::prefetch(f.guess.as_ptr().wrapping_add(nbr as usize * GUESSES));
+            crate::hint::prefetch(ctx.planes.planes.as_ptr().wrapping_add(nbr as usize));
         }
-        f.tried[nbr as usize] = label;
-        let e = guessed(f.guess, nbr as usize, label).unwrap_or_else(|| ctx.cost(nbr as usize, c));
-        if t == NONE || e < f.best[nbr as usize] {
-            f.labels[nbr as usize] = label;
-            f.best[nbr as usize] = e;
-            if !f.heap.push(key(e, nbr)) {
-                // Full: drop stale entries (final points, superseded costs).
-                let (labels, best) = (&*f.labels, &*f.best);
-                f.heap.retain(|k| {
-                    let p = (k & 0xFFFF_FFFF) as usize;
-                    labels[p] & FINAL == 0 && key(best[p], p as u32) == k
-                });
-                // Live entries <= unfinished points < n: there is room now.
-                f.heap.push(key(e, nbr));
+    }
+    for row in rows {
+        for &nbr in row {
+            let t = f.labels[nbr as usize];
+            if t & FINAL != 0 || t == label || f.tried[nbr as usize] == label {
+                continue;
+            }
+            f.tried[nbr as usize] = label;
+            let e =
+                guessed(f.guess, nbr as usize, label).unwrap_or_else(|| ctx.cost(nbr as usize, c));
+            if t == NONE || e < f.best[nbr as usize] {
+                f.labels[nbr as usize] = label;
+                f.best[nbr as usize] = e;
+                if !f.heap.push(key(e, nbr)) {
+                    // Full: drop stale entries (final points, superseded costs).
+                    let (labels, best) = (&*f.labels, &*f.best);
+                    f.heap.retain(|k| {
+                        let p = (k & 0xFFFF_FFFF) as usize;
+                        labels[p] & FINAL == 0 && key(best[p], p as u32) == k
+                    });
+                    // Live entries <= unfinished points < n: there is room now.
+                    f.heap.push(key(e, nbr));
+                }
             }
         }
     }

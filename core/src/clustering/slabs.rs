@@ -269,39 +269,44 @@ fn offer_within(shared: &Shared, heap: &mut Heap, part: &[u8], slab: u8, q: usiz
     let Some(&c) = generators.get(label as usize) else {
         return;
     };
-    for nbr in ctx.nb.symmetric(q) {
-        let nbr = nbr as usize;
-        crate::hint::prefetch(ctx.nb.knn.as_ptr().wrapping_add(nbr * ctx.nb.k));
-        crate::hint::prefetch(slots.0.as_ptr().wrapping_add(WORDS * nbr));
-        crate::hint::prefetch(guess.as_ptr().wrapping_add(nbr * GUESSES));
-        crate::hint::prefetch(ctx.planes.planes.as_ptr().wrapping_add(nbr));
+    let rows = ctx.nb.rows(q);
+    for row in rows {
+        for &nbr in row {
+            let nbr = nbr as usize;
+            crate::hint::prefetch(ctx.nb.knn.as_ptr().wrapping_add(nbr * ctx.nb.k));
+            crate::hint::prefetch(slots.0.as_ptr().wrapping_add(WORDS * nbr));
+            crate::hint::prefetch(guess.as_ptr().wrapping_add(nbr * GUESSES));
+            crate::hint::prefetch(ctx.planes.planes.as_ptr().wrapping_add(nbr));
+        }
     }
     let mut cut = false;
-    for nbr in ctx.nb.symmetric(q) {
-        let p = nbr as usize;
-        if part.get(p) != Some(&slab) {
-            cut = true;
-            continue;
-        }
-        let t = slots.label(p);
-        if t & FINAL != 0 || t == label || slots.get(p, TRIED, NONE) == label {
-            continue;
-        }
-        slots.set(p, TRIED, label);
-        let e = guessed(guess, p, label).unwrap_or_else(|| ctx.cost(p, c));
-        if t == NONE || e < slots.best(p) {
-            // The level is set when it pops.
-            slots.set(p, LABEL, label);
-            slots.set(p, BEST, e.to_bits());
-            slots.set(p, FROM, q as u32);
-            if !heap.push(key(e, nbr)) {
-                // Full: drop stale entries (final points, superseded costs).
-                heap.retain(|k| {
-                    let p = (k & 0xFFFF_FFFF) as usize;
-                    slots.label(p) & FINAL == 0 && key(slots.best(p), p as u32) == k
-                });
-                // Live entries <= unfinished points of the slab: room now.
-                heap.push(key(e, nbr));
+    for row in rows {
+        for &nbr in row {
+            let p = nbr as usize;
+            if part.get(p) != Some(&slab) {
+                cut = true;
+                continue;
+            }
+            let t = slots.label(p);
+            if t & FINAL != 0 || t == label || slots.get(p, TRIED, NONE) == label {
+                continue;
+            }
+            slots.set(p, TRIED, label);
+            let e = guessed(guess, p, label).unwrap_or_else(|| ctx.cost(p, c));
+            if t == NONE || e < slots.best(p) {
+                // The level is set when it pops.
+                slots.set(p, LABEL, label);
+                slots.set(p, BEST, e.to_bits());
+                slots.set(p, FROM, q as u32);
+                if !heap.push(key(e, nbr)) {
+                    // Full: drop stale entries (final points, superseded costs).
+                    heap.retain(|k| {
+                        let p = (k & 0xFFFF_FFFF) as usize;
+                        slots.label(p) & FINAL == 0 && key(slots.best(p), p as u32) == k
+                    });
+                    // Live entries <= unfinished points of the slab: room now.
+                    heap.push(key(e, nbr));
+                }
             }
         }
     }
@@ -347,18 +352,20 @@ impl Task for Check<'_, '_, '_> {
                 continue;
             }
             let held = slots.standing(q);
-            for r in shared.ctx.nb.symmetric(q) {
-                let r = r as usize;
-                if part.get(r) == Some(&slab)
-                    || slots.label(r) & FINAL == 0
-                    || slots.level(r) > held.0
-                {
-                    continue;
-                }
-                if shared.offer(r, q).0 < held {
-                    slots.set(q, TRIED, DIRTY);
-                    mark(q);
-                    break;
+            'rows: for row in shared.ctx.nb.rows(q) {
+                for &r in row {
+                    let r = r as usize;
+                    if part.get(r) == Some(&slab)
+                        || slots.label(r) & FINAL == 0
+                        || slots.level(r) > held.0
+                    {
+                        continue;
+                    }
+                    if shared.offer(r, q).0 < held {
+                        slots.set(q, TRIED, DIRTY);
+                        mark(q);
+                        break 'rows;
+                    }
                 }
             }
         }
@@ -485,18 +492,20 @@ impl Repair<'_, '_, '_, '_> {
         let slots = shared.slots;
         slots.clear(z);
         let mut best: Option<((u64, u64, u32), f32, u32)> = None;
-        for y in shared.ctx.nb.symmetric(z) {
-            let y_ = y as usize;
-            // An offer is no earlier than its maker's level: one above the
-            // least so far cannot win (no cost computed).
-            if slots.label(y_) & FINAL == 0
-                || best.is_some_and(|((at, _, _), _, _)| slots.level(y_) > at)
-            {
-                continue;
-            }
-            let (o, cost) = shared.offer(y_, z);
-            if best.is_none_or(|(b, _, _)| o < b) {
-                best = Some((o, cost, y));
+        for row in shared.ctx.nb.rows(z) {
+            for &y in row {
+                let y_ = y as usize;
+                // An offer is no earlier than its maker's level: one above the
+                // least so far cannot win (no cost computed).
+                if slots.label(y_) & FINAL == 0
+                    || best.is_some_and(|((at, _, _), _, _)| slots.level(y_) > at)
+                {
+                    continue;
+                }
+                let (o, cost) = shared.offer(y_, z);
+                if best.is_none_or(|(b, _, _)| o < b) {
+                    best = Some((o, cost, y));
+                }
             }
         }
         match best {
@@ -525,25 +534,32 @@ impl Repair<'_, '_, '_, '_> {
         while i < self.listed {
             let x = self.list[i];
             i += 1;
-            for c in nb.symmetric(x as usize) {
-                let c_ = c as usize;
-                if slots.label(c_) & FINAL != 0 && slots.from(c_) == x && slots.level(c_) != 0 {
-                    let Some(slot) = self.list.get_mut(self.listed) else {
-                        return false;
-                    };
-                    *slot = c;
-                    self.listed += 1;
-                    slots.clear(c_);
+            for row in nb.rows(x as usize) {
+                for &c in row {
+                    let c_ = c as usize;
+                    if slots.label(c_) & FINAL != 0 && slots.from(c_) == x && slots.level(c_) != 0 {
+                        let Some(slot) = self.list.get_mut(self.listed) else {
+                            return false;
+                        };
+                        *slot = c;
+                        self.listed += 1;
+                        slots.clear(c_);
+                    }
                 }
             }
         }
         for i in start..self.listed {
             let z = self.list[i] as usize;
             // Open points holding an offer of `z` (made while it was final).
-            for w in nb.symmetric(z) {
-                let w_ = w as usize;
-                if slots.label(w_) & FINAL == 0 && slots.from(w_) == z as u32 && !self.gather(w_) {
-                    return false;
+            for row in nb.rows(z) {
+                for &w in row {
+                    let w_ = w as usize;
+                    if slots.label(w_) & FINAL == 0
+                        && slots.from(w_) == z as u32
+                        && !self.gather(w_)
+                    {
+                        return false;
+                    }
                 }
             }
             if !self.gather(z) {
@@ -565,26 +581,28 @@ impl Repair<'_, '_, '_, '_> {
                 continue;
             }
             slots.set(x_, LABEL, label | FINAL);
-            for y in shared.ctx.nb.symmetric(x_) {
-                let y_ = y as usize;
-                let held = slots.label(y_);
-                // Seeds never change, and an offer made at this level cannot
-                // beat a triple held from a lower one (no cost computed).
-                if (held & FINAL != 0 && slots.level(y_) == 0) || slots.level(y_) < level {
-                    continue;
-                }
-                let (o, cost) = shared.offer(x_, y_);
-                if o >= slots.standing(y_) {
-                    continue;
-                }
-                if held & FINAL != 0 {
-                    if !self.reset(y_) {
-                        return false;
+            for row in shared.ctx.nb.rows(x_) {
+                for &y in row {
+                    let y_ = y as usize;
+                    let held = slots.label(y_);
+                    // Seeds never change, and an offer made at this level cannot
+                    // beat a triple held from a lower one (no cost computed).
+                    if (held & FINAL != 0 && slots.level(y_) == 0) || slots.level(y_) < level {
+                        continue;
                     }
-                } else {
-                    slots.hold(y_, o.2, cost, x, o.0);
-                    if !self.push(o.0, y) {
-                        return false;
+                    let (o, cost) = shared.offer(x_, y_);
+                    if o >= slots.standing(y_) {
+                        continue;
+                    }
+                    if held & FINAL != 0 {
+                        if !self.reset(y_) {
+                            return false;
+                        }
+                    } else {
+                        slots.hold(y_, o.2, cost, x, o.0);
+                        if !self.push(o.0, y) {
+                            return false;
+                        }
                     }
                 }
             }

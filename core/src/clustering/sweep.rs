@@ -178,8 +178,10 @@ fn numbered(
                 was.store(1, Relaxed);
             }
             *l = j as u32;
-            for q in ctx.nb.symmetric(sd as usize) {
-                border[q as usize].store(1, Relaxed);
+            for row in ctx.nb.rows(sd as usize) {
+                for &q in row {
+                    border[q as usize].store(1, Relaxed);
+                }
             }
         }
         border[sd as usize].store(1, Relaxed);
@@ -206,8 +208,10 @@ fn numbered(
     });
     if !warm {
         for &sd in seeds {
-            for q in ctx.nb.symmetric(sd as usize) {
-                mark_due(q as usize, FIRST);
+            for row in ctx.nb.rows(sd as usize) {
+                for &q in row {
+                    mark_due(q as usize, FIRST);
+                }
             }
         }
     }
@@ -240,22 +244,27 @@ fn numbered(
                     let mut mixed = false;
                     // The labels costed so far (most neighbours share a few).
                     let mut tried = [NONE; 4];
-                    for q in ctx.nb.symmetric(p) {
-                        let q = q as usize;
-                        let c = labels[q].load(Relaxed);
-                        mixed |= c != own;
-                        if c == own || changed_at[q].load(Relaxed) != t - 1 || tried.contains(&c) {
-                            continue;
-                        }
-                        tried.rotate_right(1);
-                        tried[0] = c;
-                        let Some(&g) = generators.get(c as usize) else {
-                            continue;
-                        };
-                        if best.beaten_by(ctx.cost_floor(p, g), c) {
-                            let e = ctx.cost(p, g);
-                            if best.beaten_by(e, c) {
-                                best = Next { label: c, cost: e };
+                    for row in ctx.nb.rows(p) {
+                        for &q in row {
+                            let q = q as usize;
+                            let c = labels[q].load(Relaxed);
+                            mixed |= c != own;
+                            if c == own
+                                || changed_at[q].load(Relaxed) != t - 1
+                                || tried.contains(&c)
+                            {
+                                continue;
+                            }
+                            tried.rotate_right(1);
+                            tried[0] = c;
+                            let Some(&g) = generators.get(c as usize) else {
+                                continue;
+                            };
+                            if best.beaten_by(ctx.cost_floor(p, g), c) {
+                                let e = ctx.cost(p, g);
+                                if best.beaten_by(e, c) {
+                                    best = Next { label: c, cost: e };
+                                }
                             }
                         }
                     }
@@ -264,8 +273,10 @@ fn numbered(
                             was.store(1, Relaxed);
                         }
                         *nx = best;
-                        for q in ctx.nb.symmetric(p) {
-                            mark_due(q as usize, t + 1);
+                        for row in ctx.nb.rows(p) {
+                            for &q in row {
+                                mark_due(q as usize, t + 1);
+                            }
                         }
                         changes += 1;
                         mixed = true;
@@ -388,12 +399,14 @@ fn connect(
             while head < tail {
                 let p = queue[head] as usize;
                 head += 1;
-                for q in ctx.nb.symmetric(p) {
-                    let qi = q as usize;
-                    if read[qi] == j as u32 && reached[qi].load(Relaxed) == 0 && tail < size {
-                        reached[qi].store(1, Relaxed);
-                        queue[tail] = q;
-                        tail += 1;
+                for row in ctx.nb.rows(p) {
+                    for &q in row {
+                        let qi = q as usize;
+                        if read[qi] == j as u32 && reached[qi].load(Relaxed) == 0 && tail < size {
+                            reached[qi].store(1, Relaxed);
+                            queue[tail] = q;
+                            tail += 1;
+                        }
                     }
                 }
             }
@@ -420,22 +433,27 @@ fn connect(
                     continue;
                 }
                 let mut best = UNLABELLED;
-                for q in ctx.nb.symmetric(p) {
-                    let c = read[q as usize];
-                    let Some(&g) = generators.get(c as usize).filter(|_| c != best.label) else {
-                        continue;
-                    };
-                    let e = ctx.cost(p, g);
-                    if best.label == NONE || best.beaten_by(e, c) {
-                        best = Next { label: c, cost: e };
+                for row in ctx.nb.rows(p) {
+                    for &q in row {
+                        let c = read[q as usize];
+                        let Some(&g) = generators.get(c as usize).filter(|_| c != best.label)
+                        else {
+                            continue;
+                        };
+                        let e = ctx.cost(p, g);
+                        if best.label == NONE || best.beaten_by(e, c) {
+                            best = Next { label: c, cost: e };
+                        }
                     }
                 }
                 if best.label != NONE {
                     *nx = best;
                     reached[p].store(1, Relaxed);
                     border[p].store(1, Relaxed);
-                    for q in ctx.nb.symmetric(p) {
-                        border[q as usize].store(1, Relaxed);
+                    for row in ctx.nb.rows(p) {
+                        for &q in row {
+                            border[q as usize].store(1, Relaxed);
+                        }
                     }
                     grown += 1;
                 }
@@ -588,11 +606,13 @@ mod tests {
                 let mut reached = 0;
                 while let Some(p) = stack.pop() {
                     reached += 1;
-                    for q in nb.symmetric(p) {
-                        let q = q as usize;
-                        if !seen[q] && labels[q] == j as u32 {
-                            seen[q] = true;
-                            stack.push(q);
+                    for row in nb.rows(p) {
+                        for &q in row {
+                            let q = q as usize;
+                            if !seen[q] && labels[q] == j as u32 {
+                                seen[q] = true;
+                                stack.push(q);
+                            }
                         }
                     }
                 }
