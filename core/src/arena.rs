@@ -136,6 +136,21 @@ impl<'buf> Arena<'buf> {
         self.peak.get()
     }
 
+    /// Whether a request of `bytes` (padding included) would fit and leave
+    /// [`Arena::peak`] where it is: for memory a stage may use when the run
+    /// has needed that much anyway (a cache, intermediate results kept for
+    /// later), never a reason for a larger buffer.
+    ///
+    /// At the back (a [`Scratch`] request), with no [`Arena::reset`] since
+    /// the peak, such a request also lies in bytes handed out before: the
+    /// front has only grown since the peak, so `used() + bytes <= peak()`
+    /// puts the new scratch above the deepest scratch of that moment. In a
+    /// buffer the operating system backs page by page on first touch, it
+    /// then adds no resident memory either.
+    pub fn fits_under_peak(&self, bytes: usize) -> bool {
+        bytes <= self.available() && self.used().saturating_add(bytes) <= self.peak()
+    }
+
     /// Bytes the next allocation may take (padding included): the free space
     /// between the two ends, or less under a ceiling ([`Arena::with_ceiling`]).
     pub fn available(&self) -> usize {
@@ -400,6 +415,11 @@ impl<'buf> Scratch<'_, 'buf> {
     pub fn available(&self) -> usize {
         self.arena.available()
     }
+
+    /// See [`Arena::fits_under_peak`].
+    pub fn fits_under_peak(&self, bytes: usize) -> bool {
+        self.arena.fits_under_peak(bytes)
+    }
 }
 
 /// Something to allocate from: an [`Arena`]'s persistent front, or a [`Scratch`]
@@ -550,6 +570,32 @@ mod tests {
         assert_eq!(a.used(), before + 8);
         assert_eq!(a.peak(), before + 8 + 64);
         assert_eq!(p, &[1; 16]);
+    }
+
+    #[test]
+    fn fits_under_peak_is_scratch_in_bytes_handed_out_before() {
+        let mut b = buf(256);
+        let a = Arena::new(&mut b.0[..]);
+        // The deepest scratch: 64 bytes, the peak.
+        let deepest = a.scratch(|s| s.try_alloc_slice::<u8>(64, 1).unwrap().as_ptr() as usize);
+        assert_eq!(a.peak(), 64);
+        let _kept = a.try_alloc_slice::<u8>(16, 2).unwrap();
+        assert!(a.fits_under_peak(48));
+        assert!(
+            !a.fits_under_peak(56),
+            "16 kept + 56 would raise the peak to 72"
+        );
+        a.scratch(|s| {
+            assert!(s.fits_under_peak(48));
+            let t = s.try_alloc_slice::<u8>(48, 3).unwrap();
+            assert!(t.as_ptr() as usize >= deepest, "below the deepest scratch");
+            assert_eq!(s.arena().peak(), 64);
+            assert!(!s.fits_under_peak(8), "the peak is reached");
+        });
+        // Under a ceiling the request must fit the ceiling too.
+        let (fits, _) = a.with_ceiling(40, || a.fits_under_peak(32));
+        assert!(!fits);
+        assert!(a.fits_under_peak(32));
     }
 
     #[test]

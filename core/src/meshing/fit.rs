@@ -205,17 +205,11 @@ pub fn try_fit_vertices_in<'b, A: Alloc<'b>>(
                 // bytes a point), leaving the calling thread only the sums;
                 // else it works them out as it sums. The same function of the
                 // same corners either way: the sums are the same, bit for bit.
-                // Under the peak they lie in memory the run has touched
-                // already (the persistent front only grows, so this scratch
-                // ends above the deepest scratch before it): neither the
-                // arena's peak nor the resident memory grows for them (it did
-                // at 10M points: 1,102 to 1,150 MiB at two threads).
+                // Under the peak neither the arena's peak nor the resident
+                // memory grows for them (`fits_under_peak`; both did at 10M
+                // points on two threads: 1,102 to 1,150 MiB).
                 let n = points.len();
-                let need = padded_bytes::<V3>(n);
-                let (arena, threads) = (t.arena(), hooks.threads());
-                let keep = threads > 1
-                    && t.available() >= need
-                    && arena.used().saturating_add(need) <= arena.peak();
+                let keep = hooks.threads() > 1 && t.fits_under_peak(padded_bytes::<V3>(n));
                 let betas = t.try_alloc_slice::<V3>(if keep { n } else { 0 }, [0.0; 3])?;
                 let nearest = |p: V3, h: &mut u32| {
                     let hint = (*h != u32::MAX).then_some(*h);
