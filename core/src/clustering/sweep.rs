@@ -606,13 +606,11 @@ mod tests {
                 let mut reached = 0;
                 while let Some(p) = stack.pop() {
                     reached += 1;
-                    for row in nb.rows(p) {
-                        for &q in row {
-                            let q = q as usize;
-                            if !seen[q] && labels[q] == j as u32 {
-                                seen[q] = true;
-                                stack.push(q);
-                            }
+                    for q in nb.symmetric(p) {
+                        let q = q as usize;
+                        if !seen[q] && labels[q] == j as u32 {
+                            seen[q] = true;
+                            stack.push(q);
                         }
                     }
                 }
