@@ -1,4 +1,7 @@
 //! Output invariants of `reconstruct` on generated shapes and the shared clouds.
+//! The shared clouds' sweep is `#[ignore]`d in `cargo test`, as the other
+//! sweeps are: CI runs it in release (`cargo test --release -p arena-tests
+//! --test mesh_invariants -- --ignored`).
 
 use arena_tests::{
     cloud, distance_to_mesh, load_shared_cloud, mesh_capacity_may_run_out, shared_clouds,
@@ -125,6 +128,10 @@ fn a_box_keeps_its_corners_and_edges() {
 }
 
 #[test]
+#[cfg_attr(
+    shared_data,
+    ignore = "a sweep: every shared cloud at four cluster counts, run in release (CI does)"
+)]
 #[cfg_attr(
     not(shared_data),
     ignore = "needs ../shared/data/clouds, not found when this crate was built"
