@@ -136,14 +136,19 @@ impl<'p, 'a> Ctx<'p, 'a> {
     /// Seed Eq. 4.
     #[inline]
     pub fn cost(&self, i: usize, c: V3) -> f32 {
-        self.planes.diffused_qem(self.nb, i, c) + self.lambda_w * dist2(self.points[i], c)
+        self.planes.diffused_qem(self.nb, self.points[i], i, c)
+            + self.lambda_w * dist2(self.points[i], c)
     }
 
     /// A lower bound of [`Ctx::cost`] from one plane instead of `k + 1`: the
     /// point's own plane term and the λ term (the terms left out are squares,
-    /// and rounding a sum of non-negative terms is monotone).
+    /// and rounding a sum of non-negative terms is monotone). Where the
+    /// point's diffused quadric is kept, the cost itself (as cheap).
     #[inline]
     pub fn cost_floor(&self, i: usize, c: V3) -> f32 {
+        if !self.planes.diffused.is_empty() {
+            return self.cost(i, c);
+        }
         let e = plane_eval(self.planes.planes[i], c);
         e * e + self.lambda_w * dist2(self.points[i], c)
     }
@@ -1168,7 +1173,8 @@ fn grow_from(ctx: &Ctx, generators: &[V3], f: &mut Front, q: usize) {
             crate::hint::prefetch(f.labels.as_ptr().wrapping_add(nbr as usize));
             crate::hint::prefetch(f.tried.as_ptr().wrapping_add(nbr as usize));
             crate::hint::prefetch(f.guess.as_ptr().wrapping_add(nbr as usize * GUESSES));
-            crate::hint::prefetch(ctx.planes.planes.as_ptr().wrapping_add(nbr as usize));
+            ctx.planes.prefetch(nbr as usize);
+            crate::hint::prefetch(ctx.points.as_ptr().wrapping_add(nbr as usize));
         }
     }
     for row in rows {
@@ -1224,8 +1230,12 @@ pub(crate) fn update(
             let mut quadric = Quadric::default();
             let mut sum = [0.0f64; 3];
             for &i in of(j) {
-                ctx.planes
-                    .accumulate_diffused(ctx.nb, i as usize, &mut quadric);
+                ctx.planes.accumulate_diffused(
+                    ctx.nb,
+                    ctx.points[i as usize],
+                    i as usize,
+                    &mut quadric,
+                );
                 let p = ctx.points[i as usize];
                 for a in 0..3 {
                     sum[a] += p[a] as f64;

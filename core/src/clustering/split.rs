@@ -44,7 +44,7 @@ pub fn split_bytes(n: usize, m: usize) -> usize {
 pub(crate) fn point_error2(ctx: &Ctx, i: usize, c: V3) -> f32 {
     let w = ctx.planes.diffused_weight(ctx.nb, i);
     if w > 0.0 {
-        ctx.planes.diffused_qem(ctx.nb, i, c) / w
+        ctx.planes.diffused_qem(ctx.nb, ctx.points[i], i, c) / w
     } else {
         0.0
     }

@@ -485,7 +485,7 @@ mod tests {
     use super::*;
     use crate::arena::Arena;
     use crate::clustering::knn::try_neighbours_in;
-    use crate::clustering::quadric::try_planes_in;
+    use crate::clustering::quadric::try_planes_with;
     use crate::parallel::Task;
     use crate::params::Params;
     use crate::progress::Backwards;
@@ -519,13 +519,20 @@ mod tests {
     /// flagged on the border.
     #[test]
     fn sweeps_give_the_same_connected_clusters_in_any_task_order() {
+        sweeps_in_any_task_order(true);
+        // Costed from the planes alone, with the one-plane floor, as the
+        // largest clouds are.
+        sweeps_in_any_task_order(false);
+    }
+
+    fn sweeps_in_any_task_order(local: bool) {
         let mut buf = vec![MaybeUninit::uninit(); 16 * 1024 * 1024];
         let arena = Arena::new(&mut buf);
         let mut points = vec![[0.0f32; 3]; 6000];
         fill(Shape::Torus, 3, 0.0, &mut points);
         let params = Params::default();
         let nb = try_neighbours_in(&arena, &points, params.k, &mut Silent).unwrap();
-        let planes = try_planes_in(&arena, &points, None, &nb, &mut Silent).unwrap();
+        let planes = try_planes_with(&arena, &points, None, &nb, local, &mut Silent).unwrap();
         let ctx = Ctx::new(&points, &nb, &planes, &params);
         let n = points.len();
         let mut rng = Rng::new(5);
