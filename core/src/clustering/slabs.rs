@@ -273,9 +273,13 @@ fn offer_within(shared: &Shared, heap: &mut Heap, part: &[u8], slab: u8, q: usiz
     for row in rows {
         for &nbr in row {
             let nbr = nbr as usize;
-            crate::hint::prefetch(ctx.nb.knn.as_ptr().wrapping_add(nbr * ctx.nb.k));
+            // A cost from the planes reads the neighbour's row; only such
+            // costs are guessed ahead.
+            if ctx.planes.diffused.is_empty() {
+                crate::hint::prefetch(ctx.nb.knn.as_ptr().wrapping_add(nbr * ctx.nb.k));
+                crate::hint::prefetch(guess.as_ptr().wrapping_add(nbr * GUESSES));
+            }
             crate::hint::prefetch(slots.0.as_ptr().wrapping_add(WORDS * nbr));
-            crate::hint::prefetch(guess.as_ptr().wrapping_add(nbr * GUESSES));
             ctx.planes.prefetch(nbr);
             crate::hint::prefetch(ctx.points.as_ptr().wrapping_add(nbr));
         }
