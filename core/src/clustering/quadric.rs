@@ -270,26 +270,18 @@ fn weight_and_floor(
 fn local_of(planes: &[Plane], points: &[V3], nb: &Neighbours, i: usize) -> Local {
     let p = points[i];
     let p = [p[0] as f64, p[1] as f64, p[2] as f64];
-    let mut q = [0.0f64; 10];
+    let mut q = Quadric::default();
+    // Plane `u` about `p`: `u · [x + p, 1] = m · x + (u_w + m · p)`.
     let mut add = |u: Plane| {
         let m = [u[0] as f64, u[1] as f64, u[2] as f64];
-        let w = u[3] as f64 + m[0] * p[0] + m[1] * p[1] + m[2] * p[2];
-        q[0] += m[0] * m[0];
-        q[1] += m[0] * m[1];
-        q[2] += m[0] * m[2];
-        q[3] += m[1] * m[1];
-        q[4] += m[1] * m[2];
-        q[5] += m[2] * m[2];
-        q[6] += m[0] * w;
-        q[7] += m[1] * w;
-        q[8] += m[2] * w;
-        q[9] += w * w;
+        q.add_plane_f64(m, u[3] as f64 + m[0] * p[0] + m[1] * p[1] + m[2] * p[2]);
     };
     add(planes[i]);
     for &j in nb.of(i) {
         add(planes[j as usize]);
     }
-    q.map(|v| v as f32)
+    let (a, b) = (q.a, q.b);
+    [a[0], a[1], a[2], a[3], a[4], a[5], b[0], b[1], b[2], q.c].map(|v| v as f32)
 }
 
 /// The plane factor of point `i`: its normal, and its support area (the
@@ -455,17 +447,22 @@ impl Quadric {
     /// Add the rank-one quadric `u uᵀ`.
     #[inline]
     pub fn add_plane(&mut self, u: Plane) {
-        let u = [u[0] as f64, u[1] as f64, u[2] as f64, u[3] as f64];
-        self.a[0] += u[0] * u[0];
-        self.a[1] += u[0] * u[1];
-        self.a[2] += u[0] * u[2];
-        self.a[3] += u[1] * u[1];
-        self.a[4] += u[1] * u[2];
-        self.a[5] += u[2] * u[2];
-        self.b[0] += u[0] * u[3];
-        self.b[1] += u[1] * u[3];
-        self.b[2] += u[2] * u[3];
-        self.c += u[3] * u[3];
+        self.add_plane_f64([u[0] as f64, u[1] as f64, u[2] as f64], u[3] as f64);
+    }
+
+    /// Add the rank-one quadric of the plane `m · x + w`.
+    #[inline]
+    pub fn add_plane_f64(&mut self, m: D3, w: f64) {
+        self.a[0] += m[0] * m[0];
+        self.a[1] += m[0] * m[1];
+        self.a[2] += m[0] * m[2];
+        self.a[3] += m[1] * m[1];
+        self.a[4] += m[1] * m[2];
+        self.a[5] += m[2] * m[2];
+        self.b[0] += m[0] * w;
+        self.b[1] += m[1] * w;
+        self.b[2] += m[2] * w;
+        self.c += w * w;
     }
 
     /// Add `w u uᵀ`.
