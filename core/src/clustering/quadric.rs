@@ -453,33 +453,30 @@ impl Quadric {
     /// Add the rank-one quadric of the plane `m · x + w`.
     #[inline]
     pub fn add_plane_f64(&mut self, m: D3, w: f64) {
-        self.a[0] += m[0] * m[0];
-        self.a[1] += m[0] * m[1];
-        self.a[2] += m[0] * m[2];
-        self.a[3] += m[1] * m[1];
-        self.a[4] += m[1] * m[2];
-        self.a[5] += m[2] * m[2];
-        self.b[0] += m[0] * w;
-        self.b[1] += m[1] * w;
-        self.b[2] += m[2] * w;
-        self.c += w * w;
+        let u = [m[0], m[1], m[2], w];
+        self.add_outer(u, u);
     }
 
     /// Add `w u uᵀ`.
     #[inline]
     pub fn add_plane_scaled(&mut self, u: Plane, w: f64) {
         let u = [u[0] as f64, u[1] as f64, u[2] as f64, u[3] as f64];
-        let wu = [w * u[0], w * u[1], w * u[2], w * u[3]];
-        self.a[0] += wu[0] * u[0];
-        self.a[1] += wu[0] * u[1];
-        self.a[2] += wu[0] * u[2];
-        self.a[3] += wu[1] * u[1];
-        self.a[4] += wu[1] * u[2];
-        self.a[5] += wu[2] * u[2];
-        self.b[0] += wu[0] * u[3];
-        self.b[1] += wu[1] * u[3];
-        self.b[2] += wu[2] * u[3];
-        self.c += wu[3] * u[3];
+        self.add_outer([w * u[0], w * u[1], w * u[2], w * u[3]], u);
+    }
+
+    /// Add the symmetric `l rᵀ` (`l` a multiple of `r`), entry by entry.
+    #[inline]
+    fn add_outer(&mut self, l: [f64; 4], r: [f64; 4]) {
+        self.a[0] += l[0] * r[0];
+        self.a[1] += l[0] * r[1];
+        self.a[2] += l[0] * r[2];
+        self.a[3] += l[1] * r[1];
+        self.a[4] += l[1] * r[2];
+        self.a[5] += l[2] * r[2];
+        self.b[0] += l[0] * r[3];
+        self.b[1] += l[1] * r[3];
+        self.b[2] += l[2] * r[3];
+        self.c += l[3] * r[3];
     }
 
     /// Add another quadric.
