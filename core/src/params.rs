@@ -94,7 +94,9 @@ pub struct Params {
     /// again; a round runs only where one is needed). Default 2 (on the shared
     /// clouds it gave back the raw scan's second ear at 250 clusters and the
     /// gear's spokes at 2,000, for a third more time where it runs;
-    /// `bench/notes.md`).
+    /// `bench/notes.md`). Where clusters are still left out after them, one
+    /// more round splits them, kept only if its mesh leaves out no more
+    /// points; 0 turns all of them off.
     pub refine_rounds: u32,
     /// Error bound, as a fraction of the bounding-box diagonal: while some
     /// point is farther than this from the mesh, the farthest point of each

@@ -263,13 +263,20 @@ impl<'a> ClusterState<'a> {
         self.m > self.cap
     }
 
+    /// Whether [`ClusterState::checkpoint`] would keep the clusters now: not
+    /// when the partition is swept (its labels are not a function of the
+    /// generators and seeds alone) or they are more than its room.
+    pub fn can_checkpoint(&self) -> bool {
+        !self.sweeps && self.m <= self.kept_g.len() && self.m <= self.kept_s.len()
+    }
+
     /// Keep the current generators and seeds to go back to
     /// ([`ClusterState::restore`]). `false` (nothing kept) under sweeps,
     /// whose partition depends on the one before it, or where the copies
     /// have no room (more clusters than the cap, or no splitting).
     pub fn checkpoint(&mut self) -> bool {
         let m = self.m;
-        if self.sweeps || m > self.kept_g.len() || m > self.kept_s.len() {
+        if !self.can_checkpoint() {
             return false;
         }
         self.kept_g[..m].copy_from_slice(&self.generators[..m]);

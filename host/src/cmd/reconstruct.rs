@@ -62,7 +62,9 @@ pub struct MeshArgs {
     #[arg(long, value_name = "F", default_value_t = Params::default().densify)]
     pub densify: f32,
     /// Refinement rounds where parts of the data are left out of the mesh or
-    /// farther than --refine-beyond from it.
+    /// farther than --refine-beyond from it; where clusters are still left out
+    /// after them, one more round, kept only if its mesh leaves out no more
+    /// points (0: none).
     #[arg(long, default_value_t = Params::default().refine_rounds)]
     pub refine_rounds: u32,
     /// Without --max-error, refinement rounds also run while some point is

@@ -276,6 +276,13 @@ pub enum Output {
     /// clusters left out past the cap, [`crate::params::GAP_ROOM`]); any
     /// distance otherwise.
     IfCovered,
+    /// Only when at most `left_out` points lie in clusters with no face: the
+    /// judgement of a round for clusters left out, against the mesh before
+    /// it; any distance otherwise.
+    IfNoWorse {
+        /// Points the mesh before left out.
+        left_out: u32,
+    },
 }
 
 /// When a round for the genus ([`Output::IfNoGaps`]) also asks that every
@@ -524,10 +531,13 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             {
                 return Ok((None, stats))
             }
+            Output::IfNoWorse { left_out } if uncovered_points > left_out => {
+                return Ok((None, stats))
+            }
             Output::IfFaithful { max_distance } | Output::IfNoGaps { max_distance, .. } => {
                 max_distance
             }
-            Output::Always | Output::IfCovered => f32::INFINITY,
+            Output::Always | Output::IfCovered | Output::IfNoWorse { .. } => f32::INFINITY,
         };
         // The mesh is made in scratch and measured there; only a mesh that is
         // wanted is copied out. Room for the vertices densifying may add.
