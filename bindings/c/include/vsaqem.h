@@ -116,7 +116,8 @@ typedef struct vsaqem_params {
   // Fraction of vertices added where the mesh is farthest from the data,
   // `0..=1`. Default 0.1.
   float densify;
-  // Refinement rounds for clusters left out. Default 2.
+  // Refinement rounds for clusters left out, then one more where some still
+  // are, kept only if it leaves out no more points (0: none). Default 2.
   uint32_t refine_rounds;
   // Error bound (0: none). Default 0.
   float max_error;

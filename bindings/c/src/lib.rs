@@ -128,7 +128,8 @@ pub struct vsaqem_params {
     /// Fraction of vertices added where the mesh is farthest from the data,
     /// `0..=1`. Default 0.1.
     pub densify: f32,
-    /// Refinement rounds for clusters left out. Default 2.
+    /// Refinement rounds for clusters left out, then one more where some still
+    /// are, kept only if it leaves out no more points (0: none). Default 2.
     pub refine_rounds: u32,
     /// Error bound (0: none). Default 0.
     pub max_error: f32,
