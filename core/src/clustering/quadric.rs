@@ -50,7 +50,9 @@ pub struct Planes<'a> {
 /// `xᵀ A x + 2 bᵀ x + d` as `[a_xx, a_xy, a_xz, a_yy, a_yz, a_zz, b_x, b_y, b_z, d]`.
 pub type Local = [f32; 10];
 
-/// `[x,1]ᵀ Q [x,1]` of a [`Local`] quadric, `x` relative to its point; never negative.
+/// `[x,1]ᵀ Q [x,1]` of a [`Local`] quadric, `x` relative to its point; never
+/// negative (rounding below zero gives zero), and infinite where it is not a
+/// number (an overflow of opposite signs), as a sum of squares would be.
 #[inline]
 pub fn local_eval(q: &Local, x: V3) -> f32 {
     let ax = [
@@ -62,7 +64,11 @@ pub fn local_eval(q: &Local, x: V3) -> f32 {
         + x[1] * (ax[1] + 2.0 * q[7])
         + x[2] * (ax[2] + 2.0 * q[8])
         + q[9];
-    v.max(0.0)
+    if v.is_nan() {
+        f32::INFINITY
+    } else {
+        v.max(0.0)
+    }
 }
 
 /// `u · [c, 1]`.
@@ -659,6 +665,11 @@ mod tests {
             let e = planes.diffused_qem(&nb, p, i, c) as f64;
             let ek = kept.diffused_qem(&nb, p, i, c) as f64;
             assert!(ek >= 0.0);
+            // Far enough out for the form's terms to overflow: no number, but
+            // a cost that sorts last, as the planes' sum of squares does.
+            let huge = [c[0] + 1e30, c[1] - 1e30, c[2] + 1e30];
+            assert_eq!(kept.diffused_qem(&nb, p, i, huge), f32::INFINITY);
+            assert_eq!(planes.diffused_qem(&nb, p, i, huge), f32::INFINITY);
             // The planes' sum rounds each term at the scale of its offset
             // (`√a n·p`, the point 47 units out): an error of at most `f √a_j`
             // a term, so `2 f √(w e) + w f²` in all (Cauchy-Schwarz); the
