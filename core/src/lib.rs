@@ -283,19 +283,17 @@ pub fn reconstruct_with_rows<'a>(
     // After clusters left out were split past the cap, or generators put at
     // the rims of gaps in a round that also left clusters out: the clusters
     // before (kept by a checkpoint), the points that round left out, the
-    // generators it added and whether they were at rims. The next round is
-    // judged on the points it leaves out.
-    let mut judged: Option<(usize, u32, u32, bool)> = None;
+    // generators it added and what the round did. The next round is judged
+    // on the points it leaves out.
+    let mut judged: Option<(usize, u32, u32, Judged)> = None;
     // Rims were judged no help to the data left out: split first.
     let mut splits_first = false;
     // Rounds for clusters left out, after the refinement rounds: each
     // judged by the next mesh (undone, and the last, when that leaves out
-    // more points); the points the last mesh left out; whether the pending
-    // judgement is of such a round.
+    // more points); the points the last mesh left out.
     let mut cover_rounds = 0;
     let mut cover_stop = false;
     let mut left_out = 0u32;
-    let mut cover_judged = false;
     let (mesh, meshing) = loop {
         // The last round writes the mesh out; an earlier one only when it covers
         // every cluster and meets the error bound (otherwise refinement follows
@@ -346,7 +344,7 @@ pub fn reconstruct_with_rows<'a>(
             match judged {
                 // The last round for clusters left out: its mesh is the
                 // answer unless it leaves out more points than the one before.
-                Some((_, before, _, false)) if cover_judged && !cover_round => {
+                Some((_, before, _, Judged::Cover)) if !cover_round => {
                     Output::IfNoWorse { left_out: before }
                 }
                 _ => Output::IfCovered,
@@ -384,24 +382,29 @@ pub fn reconstruct_with_rows<'a>(
         // 908 points, out; the splits none); after a split, without such
         // splits, as they would have (the armadillo at 250 clusters: 379
         // points left out before a split, 492 after).
-        let judging_cover = judged.is_some() && cover_judged;
-        cover_judged = false;
-        if let Some((m, before, more, rims)) = judged.take() {
+        if let Some((m, before, more, kind)) = judged.take() {
             let left = stats.mesh.uncovered_points;
-            let worse = if rims { left >= before } else { left > before };
+            let worse = match kind {
+                Judged::Rims => left >= before,
+                Judged::Split | Judged::Cover => left > before,
+            };
             if n_out > 0 && worse {
                 let (nb, planes) = (&clustering.neighbours, &clustering.planes);
                 let state = &mut clustering.state;
                 state.restore(arena, points, nb, planes, m, params, progress)?;
-                if rims {
-                    gap_rounds -= 1;
-                    splits_first = true;
-                } else if judging_cover {
-                    cover_rounds -= 1;
-                    cover_stop = true;
-                } else {
-                    rounds -= 1;
-                    cover_done = true;
+                match kind {
+                    Judged::Rims => {
+                        gap_rounds -= 1;
+                        splits_first = true;
+                    }
+                    Judged::Cover => {
+                        cover_rounds -= 1;
+                        cover_stop = true;
+                    }
+                    Judged::Split => {
+                        rounds -= 1;
+                        cover_done = true;
+                    }
                 }
                 added -= more;
                 continue;
@@ -444,8 +447,14 @@ pub fn reconstruct_with_rows<'a>(
             state.refine(arena, points, nb, planes, targets, params, progress)?
         };
         if kept && more > 0 && (judge_rims || state.past_cap() || cover_round) {
-            judged = Some((m, left, more as u32, judge_rims));
-            cover_judged = cover_round;
+            let kind = if judge_rims {
+                Judged::Rims
+            } else if cover_round {
+                Judged::Cover
+            } else {
+                Judged::Split
+            };
+            judged = Some((m, left, more as u32, kind));
         }
         if more == 0 && cover_round {
             // Nothing to split for cover: this round's mesh is the answer.
@@ -488,6 +497,19 @@ pub fn reconstruct_with_rows<'a>(
         mesh,
         meshing,
     })
+}
+
+/// What a round judged by the next mesh did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Judged {
+    /// Put generators at the rims of gaps (undone when the next mesh leaves
+    /// out as many points).
+    Rims,
+    /// Split clusters left out past the cap (undone when it leaves out more).
+    Split,
+    /// A round for clusters still left out after the refinement rounds
+    /// (undone, and the last, when it leaves out more).
+    Cover,
 }
 
 /// Rounds for clusters still left out after the refinement rounds (none when

@@ -1180,13 +1180,14 @@ fn grow_from(ctx: &Ctx, generators: &[V3], f: &mut Front, q: usize) {
     let rows = ctx.nb.rows(q);
     for row in rows {
         for &nbr in row {
-            // A cost from the planes reads the neighbour's row too.
+            // A cost from the planes reads the neighbour's row; only such
+            // costs are guessed ahead.
             if ctx.planes.diffused.is_empty() {
                 crate::hint::prefetch(ctx.nb.knn.as_ptr().wrapping_add(nbr as usize * ctx.nb.k));
+                crate::hint::prefetch(f.guess.as_ptr().wrapping_add(nbr as usize * GUESSES));
             }
             crate::hint::prefetch(f.labels.as_ptr().wrapping_add(nbr as usize));
             crate::hint::prefetch(f.tried.as_ptr().wrapping_add(nbr as usize));
-            crate::hint::prefetch(f.guess.as_ptr().wrapping_add(nbr as usize * GUESSES));
             ctx.planes.prefetch(nbr as usize);
             crate::hint::prefetch(ctx.points.as_ptr().wrapping_add(nbr as usize));
         }

@@ -123,18 +123,18 @@ impl Planes<'_> {
             }
             return;
         };
-        let l = l.map(|v| v as f64);
+        let l = Quadric::from_local(l);
         let p = [p[0] as f64, p[1] as f64, p[2] as f64];
         // About the origin: with x = c - p, A stays, b becomes b - A p and d
         // becomes d - 2 b·p + pᵀ A p.
-        let ap = Sym3([l[0], l[1], l[2], l[3], l[4], l[5]]).mul(p);
+        let ap = Sym3(l.a).mul(p);
         for a in 0..6 {
-            q.a[a] += l[a];
+            q.a[a] += l.a[a];
         }
         for a in 0..3 {
-            q.b[a] += l[6 + a] - ap[a];
+            q.b[a] += l.b[a] - ap[a];
         }
-        q.c += l[9] - 2.0 * (l[6] * p[0] + l[7] * p[1] + l[8] * p[2])
+        q.c += l.c - 2.0 * (l.b[0] * p[0] + l.b[1] * p[1] + l.b[2] * p[2])
             + (ap[0] * p[0] + ap[1] * p[1] + ap[2] * p[2]);
     }
 
@@ -286,8 +286,7 @@ fn local_of(planes: &[Plane], points: &[V3], nb: &Neighbours, i: usize) -> Local
     for &j in nb.of(i) {
         add(planes[j as usize]);
     }
-    let (a, b) = (q.a, q.b);
-    [a[0], a[1], a[2], a[3], a[4], a[5], b[0], b[1], b[2], q.c].map(|v| v as f32)
+    q.to_local()
 }
 
 /// The plane factor of point `i`: its normal, and its support area (the
@@ -396,14 +395,7 @@ fn floor_bin(planes: &Planes, nb: &Neighbours, i: usize, unit: f64) -> Option<us
     // origin (the minimiser does not depend on where the solve is centred, up
     // to rounding).
     let q = match planes.diffused.get(i) {
-        Some(l) => {
-            let l = l.map(|v| v as f64);
-            Quadric {
-                a: [l[0], l[1], l[2], l[3], l[4], l[5]],
-                b: [l[6], l[7], l[8]],
-                c: l[9],
-            }
-        }
+        Some(l) => Quadric::from_local(l),
         None => {
             let mut q = Quadric::default();
             planes.accumulate_diffused(nb, [0.0; 3], i, &mut q);
@@ -450,6 +442,22 @@ pub struct Quadric {
 }
 
 impl Quadric {
+    /// A kept [`Local`] quadric, widened (its `x` relative to its point).
+    pub fn from_local(l: &Local) -> Quadric {
+        let l = l.map(|v| v as f64);
+        Quadric {
+            a: [l[0], l[1], l[2], l[3], l[4], l[5]],
+            b: [l[6], l[7], l[8]],
+            c: l[9],
+        }
+    }
+
+    /// As a [`Local`] quadric, rounded to `f32`.
+    pub fn to_local(&self) -> Local {
+        let (a, b) = (self.a, self.b);
+        [a[0], a[1], a[2], a[3], a[4], a[5], b[0], b[1], b[2], self.c].map(|v| v as f32)
+    }
+
     /// Add the rank-one quadric `u uᵀ`.
     #[inline]
     pub fn add_plane(&mut self, u: Plane) {
