@@ -202,7 +202,11 @@ impl Solver<'_> {
             return None;
         }
         self.flush_changed_edges();
-        self.resplit_queued(NODE_RESPLITS);
+        // A node pruned by its bound stops re-splitting there. Not after the
+        // fixings below: their shares are the next nodes' start, and cut
+        // short they cost the fandisk and the gear half as much again in all
+        // (`bench/notes.md`).
+        self.resplit_queued_until(NODE_RESPLITS, Some((edges, *incumbent_value + tolerance)));
         loop {
             let bound = self.bound(edges);
             let to_beat = *incumbent_value + tolerance;

@@ -899,3 +899,60 @@ fn two_balls_at_once_on_a_lane_give_the_selection_of_balls_in_turn() {
         assert!(end[i] > start[i], "no pair {way}: {start:?} to {end:?}");
     }
 }
+
+#[test]
+fn re_splits_stop_at_the_first_look_that_finds_the_node_pruned() {
+    let (m, scores) = crossed_grid(16);
+    let n = m.facets.len();
+    let input = SelectInput::new(&m.facets, &scores, m.edges.len(), 200);
+    let facets: Vec<u32> = (0..n as u32).collect();
+    let edges: Vec<u32> = (0..m.edges.len() as u32).collect();
+    // Every facet queued once, then re-split (at most 100 000 of them) with
+    // a bar to prune at: the shares' bits, the bound after, and how many
+    // facets' shares moved.
+    let resplit = |bar: Option<f64>| -> (Vec<u64>, f64, f64, usize) {
+        let mut buf = vec![MaybeUninit::<u8>::uninit(); select_bytes_for(&input)];
+        let arena = Arena::new(&mut buf);
+        let mut incumbent = vec![false; n];
+        let mut solver = solver::Solver::try_new_in(&arena, &input, &mut incumbent).unwrap();
+        solver.open_problem(&facets, &edges, &Silent);
+        let start = solver.bound(&edges);
+        let before = solver.shares.to_vec();
+        for &f in &facets {
+            solver.facet_queue.push(f as usize);
+        }
+        solver.resplit_queued_until(100_000, bar.map(|b| (&edges[..], b)));
+        assert!(solver.facet_queue.pop().is_none(), "queue left");
+        let moved = facets
+            .iter()
+            .filter(|&&f| {
+                solver
+                    .facet_incidences(f as usize)
+                    .any(|x| solver.shares[x] != before[x])
+            })
+            .count();
+        let bits = solver.shares.iter().map(|s| s.to_bits()).collect();
+        (bits, start, solver.bound(&edges), moved)
+    };
+    let (all, start, end, moved) = resplit(None);
+    assert!(end < start, "the re-splits did not lower the bound");
+    assert!(
+        moved > 2 * bound::RESPLITS_PER_LOOK,
+        "only {moved} facets moved"
+    );
+    // Below the bound at the end: no look prunes, the same shares.
+    assert_eq!(resplit(Some(end - 1.0)).0, all);
+    // Above the bound at the start: the first look prunes.
+    let (_, _, first, few) = resplit(Some(start + 1.0));
+    assert!(few <= bound::RESPLITS_PER_LOOK, "{few} facets moved");
+    assert!(first <= start + 1.0);
+    // Halfway down: stops at a look with the bound at the bar or under it,
+    // before the end.
+    let bar = (start + end) / 2.0;
+    let (halfway, _, stopped, _) = resplit(Some(bar));
+    assert!(
+        stopped <= bar && stopped > end,
+        "{stopped} against {bar}, {end}"
+    );
+    assert_ne!(halfway, all);
+}
