@@ -201,8 +201,30 @@ impl Solver<'_> {
         self.open_problem(facets, edges, hooks);
         let start_mark = self.trail_len;
         let mut found = None;
+        // The facets still undecided, in the order of `facets` (in the piece
+        // queue, idle until the pieces are dropped): a step only ever decides
+        // more of them (a failed one is undone to where it began), so each
+        // step's scans look at what the step before left, not at them all.
+        let undecided = core::mem::take(&mut self.piece_queue);
+        let mut left = 0;
+        for &f in facets {
+            if let Some(slot) = undecided.get_mut(left) {
+                *slot = f;
+                left += 1;
+            }
+        }
         loop {
-            if self.disagreements(facets) == 0 {
+            let mut kept = 0;
+            for i in 0..left {
+                let f = undecided[i];
+                if self.facet_state[f as usize] == UNDECIDED {
+                    undecided[kept] = f;
+                    kept += 1;
+                }
+            }
+            left = kept;
+            let undecided = &undecided[..left];
+            if self.disagreements(undecided) == 0 {
                 let value = self.bound(edges);
                 if value > value_to_beat {
                     self.record_agreed_picks(facets);
@@ -212,7 +234,7 @@ impl Solver<'_> {
             }
             let step_mark = self.trail_len;
             let mut took_any = false;
-            for &f in facets {
+            for &f in undecided {
                 let f = f as usize;
                 if self.facet_state[f] == UNDECIDED && self.picked_by[f] != 0 && self.edges_agree(f)
                 {
@@ -230,7 +252,7 @@ impl Solver<'_> {
             }
             let mut cheapest = None;
             let mut least_loss = f64::INFINITY;
-            for &f in facets {
+            for &f in undecided {
                 let f = f as usize;
                 if self.facet_state[f] == UNDECIDED && self.loss_forced_on(f) < least_loss {
                     least_loss = self.loss_forced_on(f);
@@ -251,6 +273,7 @@ impl Solver<'_> {
             }
             break;
         }
+        self.piece_queue = undecided;
         self.undo_to(start_mark);
         self.close_problem(facets, edges);
         found
