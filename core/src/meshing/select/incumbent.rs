@@ -7,10 +7,13 @@
 use super::bound::Losses;
 use super::search::{Budget, Stack, NODES_PER_REPORT};
 use super::solver::{Solver, ON, UNDECIDED};
+use super::MAX_CONSTRAINTS;
 use crate::arena::Alloc;
 use crate::error::{Error, Result};
 use crate::parallel::Task;
 use crate::progress::{Progress, Silent};
+use core::sync::atomic::AtomicUsize;
+use core::sync::atomic::Ordering::Relaxed;
 
 /// Facets in one neighbourhood of the large-neighbourhood search, at first; a pass
 /// without gain doubles it, up to [`MAX_NEIGHBOURHOOD_SIZE`].
@@ -21,6 +24,8 @@ const MAX_NEIGHBOURHOOD_SIZE: usize = 256;
 const NODES_PER_NEIGHBOURHOOD_FACET: u64 = 50;
 /// Passes of the neighbourhood search over a component at most.
 const NEIGHBOURHOOD_PASSES: u32 = 12;
+/// Balls searched at once at most beside a lane ([`Solver::search_group`]).
+const MAX_GROUP: usize = 8;
 /// Neighbourhood flag: a facet the bound's picks would set otherwise than the
 /// incumbent, whose neighbourhood is still to be searched in this pass.
 const FLAG_SEED: u8 = 1;
@@ -55,20 +60,20 @@ impl<'a> Neighbourhood<'a> {
     }
 }
 
-/// A second solver ([`Solver::try_lane_in`]) with its own search stack and
-/// ball, on which the neighbourhood search searches a ball while the main
-/// solver searches another.
+/// A second solver ([`Solver::try_lane_in`]) with its own search stack, on
+/// which the neighbourhood search searches balls while the main solver
+/// searches others of the same group, and the group's balls.
 pub(super) struct Lane<'a> {
     /// The lane's solver.
     solver: Solver<'a>,
     /// Its search stack.
     stack: Stack<'a>,
-    /// Its ball.
-    ball: Neighbourhood<'a>,
-    /// Facets in `ball`.
-    ball_facets: usize,
-    /// Edges in `ball`.
-    ball_edges: usize,
+    /// The group's balls one after another (they share no facet and no
+    /// edge, so they fit).
+    group: Neighbourhood<'a>,
+    /// Per facet of `group`: whether it was a seed of the neighbourhood
+    /// search before the group (a ball searched again takes its seeds back).
+    was_seed: &'a mut [bool],
 }
 
 impl<'a> Lane<'a> {
@@ -82,74 +87,88 @@ impl<'a> Lane<'a> {
         Ok(Lane {
             solver: main.try_lane_in(scratch)?,
             stack: Stack::try_new_in(scratch, facets)?,
-            ball: Neighbourhood::try_new_in(scratch, facets, edges)?,
-            ball_facets: 0,
-            ball_edges: 0,
+            group: Neighbourhood::try_new_in(scratch, facets, edges)?,
+            was_seed: scratch.try_alloc_slice(facets, false)?,
         })
     }
 }
 
-/// One ball's search as a parallel task ([`Solver::search_ball`] with a
-/// budget of its own that reports nowhere).
-struct BallTask<'t, 's, 'k> {
-    solver: &'t mut Solver<'s>,
-    ball: (&'t [u32], &'t [u32]),
+/// The balls of a group ([`Solver::search_group`]) and what their searches
+/// share: ball `k` is `facets[facet_end[k]..facet_end[k + 1]]` with the
+/// edges `edges[edge_end[k]..edge_end[k + 1]]`.
+struct Group<'g> {
+    facets: &'g [u32],
+    edges: &'g [u32],
+    facet_end: [usize; MAX_GROUP + 1],
+    edge_end: [usize; MAX_GROUP + 1],
+    count: usize,
+    /// The next ball not yet taken by a worker.
+    next: AtomicUsize,
     ball_size: usize,
-    stack: &'t mut Stack<'k>,
     tolerance: f64,
-    /// The budget's nodes left and used before the search.
+    /// The budget's nodes left and used before the group.
     nodes: (u64, u64),
-    /// The search's result.
-    out: Result<(f64, f64)>,
-    /// Nodes it used.
-    used: u64,
 }
 
-impl<'t, 's, 'k> BallTask<'t, 's, 'k> {
-    fn new(
-        solver: &'t mut Solver<'s>,
-        ball: (&'t [u32], &'t [u32]),
-        ball_size: usize,
-        stack: &'t mut Stack<'k>,
-        tolerance: f64,
-        nodes: (u64, u64),
-    ) -> Self {
-        BallTask {
-            solver,
-            ball,
-            ball_size,
-            stack,
-            tolerance,
-            nodes,
-            out: Ok((0.0, 0.0)),
-            used: 0,
+impl Group<'_> {
+    /// Ball `k`'s facets and edges.
+    fn ball(&self, k: usize) -> (&[u32], &[u32]) {
+        (
+            &self.facets[self.facet_end[k]..self.facet_end[k + 1]],
+            &self.edges[self.edge_end[k]..self.edge_end[k + 1]],
+        )
+    }
+}
+
+/// What one ball's search found (its value on the ball and the incumbent's
+/// value there), and the nodes it used.
+type Searched = (Result<(f64, f64)>, u64);
+
+/// One solver searching the balls of a group, as a parallel task: each
+/// ball it takes (the next not yet taken, whatever the other worker does)
+/// with the nodes the ball would have in turn if every ball before it in
+/// the group used one. Which worker searches a ball does not change its
+/// result: the balls share no edge, and both solvers hold the same state.
+struct Worker<'t, 's, 'k> {
+    solver: &'t mut Solver<'s>,
+    stack: &'t mut Stack<'k>,
+    group: &'t Group<'t>,
+    /// Per ball: what its search found, when this worker took it.
+    out: [Option<Searched>; MAX_GROUP],
+}
+
+impl Task for Worker<'_, '_, '_> {
+    fn run(&mut self) {
+        let g = self.group;
+        loop {
+            let k = g.next.fetch_add(1, Relaxed);
+            if k >= g.count {
+                break;
+            }
+            let ball = g.ball(k);
+            for &f in ball.0 {
+                self.solver.neighbourhood_flags[f as usize] |= FLAG_IN_BALL;
+            }
+            let mut silent = Silent;
+            let left = g.nodes.0 - k as u64;
+            let mut budget = Budget {
+                nodes_left: left,
+                nodes_used: g.nodes.1 + k as u64,
+                progress: &mut silent,
+                done: 0,
+                total: 0,
+            };
+            let out =
+                self.solver
+                    .search_ball(ball, g.ball_size, self.stack, g.tolerance, &mut budget);
+            self.out[k] = Some((out, left - budget.nodes_left));
         }
     }
 }
 
-impl Task for BallTask<'_, '_, '_> {
-    fn run(&mut self) {
-        let mut silent = Silent;
-        let mut budget = Budget {
-            nodes_left: self.nodes.0,
-            nodes_used: self.nodes.1,
-            progress: &mut silent,
-            done: 0,
-            total: 0,
-        };
-        self.out = self.solver.search_ball(
-            self.ball,
-            self.ball_size,
-            self.stack,
-            self.tolerance,
-            &mut budget,
-        );
-        self.used = self.nodes.0 - budget.nodes_left;
-    }
-}
-
-/// Tests' counts of the lane's ways, summed over every run: pairs kept,
-/// second balls searched again in turn, next balls that shared an edge.
+/// Tests' counts of the lane's ways, summed over every run: balls kept
+/// beside the group's first, balls searched again in turn, next balls that
+/// shared an edge with the group.
 #[cfg(test)]
 pub(super) static LANE_COUNTS: [core::sync::atomic::AtomicU32; 3] =
     [const { core::sync::atomic::AtomicU32::new(0) }; 3];
@@ -480,36 +499,24 @@ impl Solver<'_> {
                 }
                 let (ball_facets, ball_edges) = self.grow_ball(seed, ball_size, ball);
                 let first = (&ball.facets[..ball_facets], &ball.edges[..ball_edges]);
-                let pair = match lane.as_deref_mut() {
-                    Some(lane) if budget.nodes_left >= 2 => {
-                        self.second_ball(facets, i, first, ball_size, lane)
-                    }
-                    _ => None,
-                };
-                if let Some((j, lane)) = pair.zip(lane.as_deref_mut()) {
-                    let ball = (first, lane);
-                    if self.search_two(
-                        ball,
+                if let Some(lane) = lane.as_deref_mut().filter(|_| budget.nodes_left >= 2) {
+                    i = self.search_group(
+                        facets,
+                        i - 1,
+                        first,
                         ball_size,
+                        lane,
                         stack,
                         tolerance,
                         budget,
                         incumbent_value,
-                    )? {
-                        i = j + 1;
-                    }
+                    )?;
                     continue;
-                }
-                for &f in first.0 {
-                    self.neighbourhood_flags[f as usize] |= FLAG_IN_BALL;
                 }
                 let (value, before) =
                     self.search_ball(first, ball_size, stack, tolerance, budget)?;
                 if value > before + tolerance {
                     *incumbent_value += value - before;
-                }
-                if let Some(lane) = lane.as_deref_mut() {
-                    lane.solver.copy_ball_from(self, first.0);
                 }
             }
             if *incumbent_value <= value_before + tolerance {
@@ -522,108 +529,176 @@ impl Solver<'_> {
         Ok(())
     }
 
-    /// Search ball `first` here and the lane's ball on the lane at once, in
-    /// parallel tasks of `budget`'s progress, the second given the nodes it
-    /// would have in turn if the first used one. Keeps the second's result
-    /// (returns `true`) when the first did use one; else it is to be searched
-    /// again in turn. Either way both solvers end with the same shares and
-    /// incumbent. Never inlined: its tasks' frames stay off the stack of the
+    /// Search ball `first` (just grown from the seed at `facets[at]`, its
+    /// facets flagged [`FLAG_IN_BALL`]) and the balls of the next seeds with
+    /// it, as long as none shares an edge with one before it (at most
+    /// [`MAX_GROUP`], and no more than the nodes left), as parallel tasks of
+    /// `budget`'s progress: this solver and the lane each search the next
+    /// ball not yet taken. The result is that of searching them in turn:
+    /// each ball is given the nodes it would have in turn if every ball
+    /// before it used one, and is kept when they did; the first ball that
+    /// used more is the last kept, and the balls after it are searched again
+    /// in turn (their seeds and state as before). Both solvers end with the
+    /// same shares and incumbent. Returns where the seeds go on in
+    /// `facets`. Never inlined: its tasks' frames stay off the stack of the
     /// one-thread search (the firmware's).
+    #[allow(clippy::too_many_arguments)]
     #[inline(never)]
-    fn search_two(
+    fn search_group(
         &mut self,
-        (first, lane): ((&[u32], &[u32]), &mut Lane<'_>),
+        facets: &[u32],
+        at: usize,
+        first: (&[u32], &[u32]),
         ball_size: usize,
+        lane: &mut Lane<'_>,
         stack: &mut Stack<'_>,
         tolerance: f64,
         budget: &mut Budget<'_>,
         incumbent_value: &mut f64,
-    ) -> Result<bool> {
-        let second = (
-            &lane.ball.facets[..lane.ball_facets],
-            &lane.ball.edges[..lane.ball_edges],
-        );
-        for &f in first.0 {
-            self.neighbourhood_flags[f as usize] |= FLAG_IN_BALL;
+    ) -> Result<usize> {
+        let Lane {
+            solver: lane_solver,
+            stack: lane_stack,
+            group: store,
+            was_seed,
+        } = lane;
+        let (mut facet_end, mut edge_end) = ([0usize; MAX_GROUP + 1], [0usize; MAX_GROUP + 1]);
+        let mut seed_at = [0usize; MAX_GROUP];
+        let (nf, ne) = (first.0.len(), first.1.len());
+        store.facets[..nf].copy_from_slice(first.0);
+        store.edges[..ne].copy_from_slice(first.1);
+        for (w, &f) in was_seed.iter_mut().zip(first.0) {
+            *w = self.neighbourhood_flags[f as usize] & FLAG_SEED != 0;
         }
-        for &f in second.0 {
-            lane.solver.neighbourhood_flags[f as usize] |= FLAG_IN_BALL;
-        }
-        let (left, used) = (budget.nodes_left, budget.nodes_used);
-        let mut here = BallTask::new(self, first, ball_size, stack, tolerance, (left, used));
-        let mut there = BallTask::new(
-            &mut lane.solver,
-            second,
-            ball_size,
-            &mut lane.stack,
-            tolerance,
-            (left - 1, used + 1),
-        );
-        budget.progress.run(&mut [&mut here, &mut there]);
-        let (first_out, first_used) = (here.out, here.used);
-        let (second_out, second_used) = (there.out, there.used);
-        let (value, before) = first_out?;
-        let (second_value, second_before) = second_out?;
-        budget.nodes_left -= first_used;
-        budget.nodes_used += first_used;
-        if value > before + tolerance {
-            *incumbent_value += value - before;
-        }
-        lane.solver.copy_ball_from(self, first.0);
-        let kept = first_used == 1;
-        if kept {
-            count_lane(0);
-            for &f in second.0 {
-                self.neighbourhood_flags[f as usize] &= !FLAG_SEED;
+        (seed_at[0], facet_end[1], edge_end[1]) = (at, nf, ne);
+        let most = MAX_GROUP.min(usize::try_from(budget.nodes_left).unwrap_or(MAX_GROUP));
+        let mut count = 1;
+        let mut from = at + 1;
+        while count < most {
+            // Searching the ball before clears its seeds (and its ball's
+            // flags): the next seed is the one the search in turn would take.
+            for &f in &store.facets[facet_end[count - 1]..facet_end[count]] {
+                self.neighbourhood_flags[f as usize] &= !(FLAG_SEED | FLAG_IN_BALL);
             }
-            self.copy_ball_from(&lane.solver, second.0);
-            budget.nodes_left -= second_used;
-            budget.nodes_used += second_used;
-            if second_value > second_before + tolerance {
-                *incumbent_value += second_value - second_before;
-            }
-        } else {
-            // The lane's copy of the second ball is overwritten after its
-            // search in turn.
-            count_lane(1);
-        }
-        if budget.nodes_used / NODES_PER_REPORT != used / NODES_PER_REPORT && !budget.report() {
-            return Err(Error::Cancelled);
-        }
-        Ok(kept)
-    }
-
-    /// The ball to search beside `first` (just grown from the seed before
-    /// `facets[from]`): the next seed's, grown into the lane's ball, when it
-    /// shares no edge with `first` (so neither search reads what the other
-    /// writes, nor its border). Returns the seed's position in `facets`. The
-    /// first ball's seed flags are cleared on the way, as searching it clears
-    /// them; the second's are left.
-    fn second_ball(
-        &mut self,
-        facets: &[u32],
-        from: usize,
-        first: (&[u32], &[u32]),
-        ball_size: usize,
-        lane: &mut Lane<'_>,
-    ) -> Option<usize> {
-        for &f in first.0 {
-            self.neighbourhood_flags[f as usize] &= !(FLAG_SEED | FLAG_IN_BALL);
-        }
-        let j = from
-            + facets[from..]
+            let Some(next) = facets[from.min(facets.len())..]
                 .iter()
-                .position(|&f| self.neighbourhood_flags[f as usize] & FLAG_SEED != 0)?;
-        let (n_facets, n_edges) = self.grow_ball(facets[j], ball_size, &mut lane.ball);
-        for &f in &lane.ball.facets[..n_facets] {
+                .position(|&f| self.neighbourhood_flags[f as usize] & FLAG_SEED != 0)
+            else {
+                break;
+            };
+            let (f0, e0) = (facet_end[count], edge_end[count]);
+            if store.facets.len() - f0 < ball_size
+                || store.edges.len() - e0 < MAX_CONSTRAINTS.saturating_mul(ball_size)
+            {
+                break;
+            }
+            let mut tail = Neighbourhood {
+                facets: &mut store.facets[f0..],
+                edges: &mut store.edges[e0..],
+            };
+            let (nf, ne) = self.grow_ball(facets[from + next], ball_size, &mut tail);
+            for (w, &f) in was_seed[f0..f0 + nf]
+                .iter_mut()
+                .zip(&store.facets[f0..f0 + nf])
+            {
+                let flags = &mut self.neighbourhood_flags[f as usize];
+                *w = *flags & FLAG_SEED != 0;
+                *flags &= !FLAG_IN_BALL;
+            }
+            let edges = &store.edges[e0..e0 + ne];
+            if !(0..count).all(|k| disjoint(&store.edges[edge_end[k]..edge_end[k + 1]], edges)) {
+                count_lane(2);
+                break;
+            }
+            seed_at[count] = from + next;
+            (facet_end[count + 1], edge_end[count + 1]) = (f0 + nf, e0 + ne);
+            count += 1;
+            from += next + 1;
+        }
+        for &f in &store.facets[..facet_end[count]] {
             self.neighbourhood_flags[f as usize] &= !FLAG_IN_BALL;
         }
-        (lane.ball_facets, lane.ball_edges) = (n_facets, n_edges);
-        let apart = disjoint(first.1, &lane.ball.edges[..n_edges]);
-        if !apart {
-            count_lane(2);
+        let group = Group {
+            facets: &store.facets[..facet_end[count]],
+            edges: &store.edges[..edge_end[count]],
+            facet_end,
+            edge_end,
+            count,
+            next: AtomicUsize::new(0),
+            ball_size,
+            tolerance,
+            nodes: (budget.nodes_left, budget.nodes_used),
+        };
+        let mut here = Worker {
+            solver: self,
+            stack,
+            group: &group,
+            out: [const { None }; MAX_GROUP],
+        };
+        let mut there = Worker {
+            solver: lane_solver,
+            stack: lane_stack,
+            group: &group,
+            out: [const { None }; MAX_GROUP],
+        };
+        budget.progress.run(&mut [&mut here, &mut there]);
+        let (here, there) = (here.out, there.out);
+        let used_before = budget.nodes_used;
+        // In turn: ball k is kept when every ball before it used one node.
+        let mut next_seed = at + 1;
+        let mut in_turn = true;
+        for k in 0..count {
+            let (ball, _) = group.ball(k);
+            // (A task the progress never ran leaves its balls unsearched:
+            // they are searched again in turn.)
+            let searched = match (&here[k], &there[k]) {
+                (Some(o), _) => Some((o, false)),
+                (None, Some(o)) => Some((o, true)),
+                (None, None) => None,
+            };
+            let Some((&(result, used), on_lane)) = searched.filter(|_| in_turn) else {
+                // Searched again in turn: its state and seeds as before.
+                count_lane(1);
+                in_turn = false;
+                match searched {
+                    Some((_, true)) => lane_solver.copy_ball_from(self, ball),
+                    Some((_, false)) => self.copy_ball_from(lane_solver, ball),
+                    None => {}
+                }
+                let seeds = &was_seed[group.facet_end[k]..group.facet_end[k + 1]];
+                for (&f, &seed) in ball.iter().zip(seeds) {
+                    if seed {
+                        self.neighbourhood_flags[f as usize] |= FLAG_SEED;
+                    }
+                }
+                continue;
+            };
+            let (value, before) = result?;
+            if k > 0 {
+                count_lane(0);
+            }
+            budget.nodes_left -= used;
+            budget.nodes_used += used;
+            if value > before + tolerance {
+                *incumbent_value += value - before;
+            }
+            if on_lane {
+                self.copy_ball_from(lane_solver, ball);
+            } else {
+                lane_solver.copy_ball_from(self, ball);
+            }
+            for &f in ball {
+                self.neighbourhood_flags[f as usize] &= !FLAG_SEED;
+            }
+            next_seed = seed_at[k] + 1;
+            in_turn = used == 1;
         }
-        apart.then_some(j)
+        if budget.nodes_used / NODES_PER_REPORT != used_before / NODES_PER_REPORT
+            && !budget.report()
+        {
+            return Err(Error::Cancelled);
+        }
+        Ok(next_seed)
     }
 
     /// Search one ball (`ball`: its facets, flagged [`FLAG_IN_BALL`], and its

@@ -337,9 +337,11 @@ fn search_bytes(f: usize, e: usize) -> usize {
 }
 
 /// Bytes of a lane (`incumbent::Lane`): a solver's state and incumbent, a
-/// neighbourhood and a search stack.
+/// group of balls (a neighbourhood's arrays) and their seed flags, and a
+/// search stack.
 fn lane_bytes(f: usize, e: usize, i: usize) -> usize {
     state_bytes(f, e, i)
+        .saturating_add(array_bytes::<bool>(f))
         .saturating_add(array_bytes::<bool>(f))
         .saturating_add(search_bytes(f, e))
 }

@@ -843,7 +843,7 @@ fn bordered_grid(side: u32, seed: u64) -> (Mesh, Vec<f32>, Vec<u8>, Vec<f32>) {
 }
 
 #[test]
-fn two_balls_at_once_on_a_lane_give_the_selection_of_balls_in_turn() {
+fn balls_searched_in_groups_beside_a_lane_give_the_selection_of_balls_in_turn() {
     use core::sync::atomic::Ordering::Relaxed;
     let counts = || incumbent::LANE_COUNTS.each_ref().map(|c| c.load(Relaxed));
     let start = counts();
@@ -882,8 +882,8 @@ fn two_balls_at_once_on_a_lane_give_the_selection_of_balls_in_turn() {
             limit,
         ));
     }
-    // Node limits that end the search within a pair of balls, where the
-    // first ball's nodes decide whether the second's result counts.
+    // Node limits that end the search within a group of balls, where the
+    // nodes of the balls before one decide whether its result counts.
     let (m, scores, mask, pens) = bordered_grid(12, 12348);
     for limit in 20..=40 {
         compare(&SelectInput {
@@ -892,8 +892,8 @@ fn two_balls_at_once_on_a_lane_give_the_selection_of_balls_in_turn() {
             ..SelectInput::new(&m.facets, &scores, m.edges.len(), limit)
         });
     }
-    // Every way of the lane ran: pairs kept, second balls searched again,
-    // next balls refused for an edge in common.
+    // Every way of the groups ran: balls kept beside the first, balls
+    // searched again in turn, next balls refused for an edge in common.
     let end = counts();
     for (i, way) in ["kept", "searched again", "refused"].iter().enumerate() {
         assert!(end[i] > start[i], "no pair {way}: {start:?} to {end:?}");
