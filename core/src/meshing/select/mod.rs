@@ -124,8 +124,8 @@ use propagate::{ComponentSpan, Components};
 use search::{Budget, Stack};
 use solver::Solver;
 
-/// Facets a selection needs for its neighbourhood search to run two balls
-/// at once on two threads (a lane costs about `41 F + 24 I + 92 E` bytes).
+/// Facets a selection needs for its neighbourhood search to run balls at
+/// once on two threads (a lane costs about `42 F + 24 I + 92 E` bytes).
 const MIN_LANE_FACETS: usize = 256;
 
 /// Edge mask "degree 0 or 2": a closed 2-manifold edge (seed Eq. 8).
@@ -474,7 +474,7 @@ pub fn try_select_with_in<'a, 'b, A: Alloc<'b>>(
         let mut ball = Neighbourhood::try_new_in(scratch, facet_count, edge_count)?;
         let mut components = Components::try_new_in(scratch, facet_count, edge_count)?;
         let mut stack = Stack::try_new_in(scratch, facet_count)?;
-        // A lane for the neighbourhood search when two balls can run at once
+        // A lane for the neighbourhood search when balls can run at once
         // and the arena has room (never counted in `bytes_needed`).
         let incidences = solver.shares.len();
         let mut lane = if progress.threads() >= 2
