@@ -456,20 +456,15 @@ pub fn reconstruct_with_rows<'a>(
             };
             judged = Some((m, left, more as u32, kind));
         }
-        if more == 0 && cover_round {
-            // Nothing to split for cover: this round's mesh is the answer.
-            cover_stop = true;
-            last = true;
-            continue;
-        }
         if more == 0 {
             // Nothing to split. After a round that only asked for cover (no
             // room under the cap), the rounds go on as they would have without
             // it (the same clusters: the next round makes the same mesh and
-            // judges it as before). Otherwise this round's mesh is the answer:
-            // make it again, written out (same clusters, same mesh).
+            // judges it as before). Otherwise, a round for clusters still left
+            // out among them, this round's mesh is the answer: make it again,
+            // written out (same clusters, same mesh).
             let cover_only = matches!(output, Output::IfCovered | Output::IfNoGaps { .. });
-            if cover_only && n_far == 0 && !cover_done {
+            if cover_only && n_far == 0 && !cover_done && !cover_round {
                 cover_done = true;
             } else {
                 last = true;
