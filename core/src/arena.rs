@@ -509,6 +509,59 @@ pub fn atomic_f32_bits(values: &mut [f32]) -> &[core::sync::atomic::AtomicU32] {
     unsafe { &*(values as *mut [f32] as *const [core::sync::atomic::AtomicU32]) }
 }
 
+/// `values` as atomic `u32` words, two a value (see [`atomic_bytes`]):
+/// [`F64Words`] reads and sets each value whole; the values are plain `f64`s
+/// again once the view is dropped. (Two words, not one `AtomicU64`: the
+/// Cortex-M4F has no 64-bit atomics.)
+pub fn atomic_f64_words(values: &mut [f64]) -> F64Words<'_> {
+    let words = values.len() * 2;
+    // SAFETY: an `f64` is 8 bytes aligned to at least 4, so the values' memory
+    // holds `2 × len` `AtomicU32`s (size 4, alignment 4, every bit pattern
+    // valid for both); the exclusive borrow of `values` for the result's
+    // lifetime rules out non-atomic access meanwhile.
+    F64Words(unsafe {
+        core::slice::from_raw_parts(
+            values.as_mut_ptr() as *const core::sync::atomic::AtomicU32,
+            words,
+        )
+    })
+}
+
+/// `f64` values shared by parallel tasks as pairs of atomic words
+/// ([`atomic_f64_words`]): relaxed loads and stores, so a value must not be
+/// read while another task sets it (the caller's tasks set disjoint values
+/// that no other task reads meanwhile).
+#[derive(Clone, Copy)]
+pub struct F64Words<'a>(&'a [core::sync::atomic::AtomicU32]);
+
+impl F64Words<'_> {
+    /// Value `i` (0 past the end).
+    #[inline]
+    pub fn get(&self, i: usize) -> f64 {
+        let word = |k: usize| {
+            self.0
+                .get(2 * i + k)
+                .map_or(0, |w| w.load(core::sync::atomic::Ordering::Relaxed))
+        };
+        let (a, b) = (word(0).to_ne_bytes(), word(1).to_ne_bytes());
+        f64::from_ne_bytes([a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3]])
+    }
+
+    /// Set value `i` (nothing past the end).
+    #[inline]
+    pub fn set(&self, i: usize, v: f64) {
+        let b = v.to_ne_bytes();
+        for (k, w) in [[b[0], b[1], b[2], b[3]], [b[4], b[5], b[6], b[7]]]
+            .into_iter()
+            .enumerate()
+        {
+            if let Some(a) = self.0.get(2 * i + k) {
+                a.store(u32::from_ne_bytes(w), core::sync::atomic::Ordering::Relaxed);
+            }
+        }
+    }
+}
+
 /// Atomic `u32`s as plain values again, once no other thread holds them.
 pub fn plain_u32s(values: &mut [core::sync::atomic::AtomicU32]) -> &mut [u32] {
     // SAFETY: as for `atomic_u32s`, the other way; the exclusive borrow means
@@ -750,6 +803,15 @@ mod tests {
         assert_eq!(atomic_f32_bits(floats)[1].load(Relaxed), 0.5f32.to_bits());
         atomic_f32_bits(floats)[0].store((-3.25f32).to_bits(), Relaxed);
         assert_eq!(floats, [-3.25, 0.5]);
+        let doubles = a.try_alloc_slice::<f64>(3, 1.5).unwrap();
+        let view = atomic_f64_words(doubles);
+        let tiny = f64::from_bits(1);
+        assert_eq!((view.get(1), view.get(3)), (1.5, 0.0));
+        view.set(0, -0.1);
+        view.set(2, tiny);
+        view.set(3, 9.0);
+        assert_eq!((view.get(0), view.get(2)), (-0.1, tiny));
+        assert_eq!(doubles, [-0.1, 1.5, tiny]);
     }
 
     #[cfg(feature = "bumpalo")]

@@ -127,6 +127,11 @@ pub fn degeneracy(points: &[V3]) -> Option<Degeneracy> {
         off_plane = off_plane.max(along(v[0]).abs());
         let (a, b) = (along(v[0]), along(v[1]));
         off_line = off_line.max(libm::sqrt(a * a + b * b));
+        // Both past the tolerance (on a surface, within the first few
+        // points): neither verdict can come.
+        if off_plane > tol && off_line > tol {
+            return None;
+        }
     }
     if off_line <= tol {
         Some(Degeneracy::Collinear)

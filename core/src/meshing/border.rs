@@ -26,6 +26,8 @@ use crate::clustering::quadric::Planes;
 use crate::error::Result;
 use crate::math::{cross, dot, norm, perpendicular, sub, V3};
 use crate::meshing::candidates::{Candidates, Members};
+use crate::parallel;
+use crate::progress::Progress;
 
 /// The largest angular gap (radians, in `[0, 2π]`) around `p` among the points
 /// `around`, projected onto the plane of unit normal `n` through `p`. Points that
@@ -87,6 +89,10 @@ pub fn largest_gap(
 /// surface about a third of the k neighbours lie in any such wedge.
 const AHEAD: usize = 2;
 
+/// Most adjacent clusters whose angles a parallel task holds on its stack
+/// (more: the clusters one after another, their angles in scratch).
+const STACK_ANGLES: usize = 64;
+
 /// Whether the data goes on past point `end` in direction `dir` (see [`AHEAD`]).
 fn data_beyond(points: &[V3], nb: &Neighbours, end: u32, n: V3, dir: V3) -> bool {
     let e = end as usize;
@@ -130,6 +136,7 @@ pub fn try_border_clusters_in<'a, 'b, A: Alloc<'b>>(
     generators: &[V3],
     angle: f32,
     moved: &mut [V3],
+    hooks: &dyn Progress,
 ) -> Result<&'a [bool]> {
     let m = members.len().min(generators.len()).min(moved.len());
     let out = a.try_alloc_slice(m, false)?;
@@ -172,10 +179,14 @@ pub fn try_border_clusters_in<'a, 'b, A: Alloc<'b>>(
                 }
             }
         }
-        let angles = s.try_alloc_slice::<f32>(most as usize, 0.0)?;
-        for j in 0..m {
+        // Each cluster's verdict reads only the inputs: in parallel tasks
+        // over ranges of clusters, each with its angles on its stack, when
+        // the most adjacent clusters fit there; else one after another.
+        let frayed = &*frayed;
+        let (start, adj) = (&*start, &*adj);
+        let verdict = |j: usize, angles: &mut [f32]| -> Option<V3> {
             let pts = members.of(j);
-            let Some(&first) = pts.first() else { continue };
+            let &first = pts.first()?;
             let reference = planes.planes[first as usize];
             let mut n = [0.0f32; 3];
             for &i in pts {
@@ -195,30 +206,44 @@ pub fn try_border_clusters_in<'a, 'b, A: Alloc<'b>>(
             }
             let l = norm(n);
             if !(l > 0.0 && l.is_finite()) {
-                continue;
+                return None;
             }
             let n = [n[0] / l, n[1] / l, n[2] / l];
             let around = adj[start[j] as usize..start[j + 1] as usize]
                 .iter()
                 .map(|&k| generators[k as usize]);
             let (gap, dir) = largest_gap(generators[j], n, around, angles);
-            if gap > angle && frayed[j] {
-                // The member farthest into the gap: where the data ends, its
-                // neighbours all lie behind it or along the border.
-                let g = generators[j];
-                let (mut reach, mut end) = (0.0f32, first);
-                for &i in pts {
-                    let x = dot(sub(points[i as usize], g), dir);
-                    if x > reach {
-                        (reach, end) = (x, i);
+            if !(gap > angle && frayed[j]) {
+                return None;
+            }
+            let g = generators[j];
+            let (mut reach, mut end) = (0.0f32, first);
+            for &i in pts {
+                let x = dot(sub(points[i as usize], g), dir);
+                if x > reach {
+                    (reach, end) = (x, i);
+                }
+            }
+            if data_beyond(points, nb, end, n, dir) {
+                return None;
+            }
+            Some([0, 1, 2].map(|c| g[c] + reach * dir[c]))
+        };
+        let most = most as usize;
+        if most <= STACK_ANGLES && hooks.threads() >= 2 {
+            parallel::pairs(hooks, &mut out[..m], &mut moved[..m], |js, out, moved| {
+                let mut angles = [0.0f32; STACK_ANGLES];
+                for (j, (o, v)) in js.zip(out.iter_mut().zip(moved)) {
+                    if let Some(p) = verdict(j, &mut angles[..most]) {
+                        (*o, *v) = (true, p);
                     }
                 }
-                if data_beyond(points, nb, end, n, dir) {
-                    continue;
-                }
-                out[j] = true;
-                for c in 0..3 {
-                    moved[j][c] = g[c] + reach * dir[c];
+            });
+        } else {
+            let angles = s.try_alloc_slice::<f32>(most, 0.0)?;
+            for j in 0..m {
+                if let Some(p) = verdict(j, angles) {
+                    (out[j], moved[j]) = (true, p);
                 }
             }
         }

@@ -73,7 +73,7 @@ pub(crate) fn try_problem_in<'s, 'b, A: Alloc<'b>>(
     let moved = s.try_alloc_copy(gens)?;
     let angle = params.border_angle * (core::f32::consts::PI / 180.0);
     let open = border::try_border_clusters_in(
-        s, points, &members, planes, nb, &cand, per_edge, gens, angle, moved,
+        s, points, &members, planes, nb, &cand, per_edge, gens, angle, moved, &*progress,
     )?;
     tick(progress, Stage::Candidates, 1, 1)?;
     tick(progress, Stage::Scoring, 0, 1)?;

@@ -6,8 +6,29 @@
 
 use super::solver::{Solver, ON, UNDECIDED};
 use super::{MAX_CONSTRAINTS, UNUSED};
+use crate::arena::{atomic_f64_words, F64Words};
 use crate::parallel;
 use crate::progress::Progress;
+
+/// Where [`Solver::smoothed_shares_with`] reads the shares: the solver's own,
+/// or their atomic view while a level's tasks set them.
+trait Shares: Copy {
+    fn share(&self, x: usize) -> f64;
+}
+
+impl Shares for &[f64] {
+    #[inline(always)]
+    fn share(&self, x: usize) -> f64 {
+        self[x]
+    }
+}
+
+impl Shares for F64Words<'_> {
+    #[inline(always)]
+    fn share(&self, x: usize) -> f64 {
+        self.get(x)
+    }
+}
 
 /// A re-split that moves no share by more than this (relative to the mean |score|
 /// of the component) is not propagated to the facet's edges.
@@ -35,7 +56,7 @@ const PARALLEL_EDGES: usize = 256;
 /// Undecided facets of one level of a root sweep from which its facets are
 /// re-split in parallel tasks (fewer: on the calling thread; the shares are
 /// the same), and the fewest facets of a sweep run by levels at all.
-const PARALLEL_LEVEL: usize = 64;
+const PARALLEL_LEVEL: usize = 32;
 /// Fewest undecided facets a level, on average, of a sweep run by levels
 /// (fewer: one facet after another, the same shares; many small levels would
 /// each pay for a round of tasks).
@@ -754,9 +775,10 @@ impl Solver<'_> {
     /// every one after it of a higher: sweeping the levels in turn, each
     /// level's facets from the shares the levels before left, gives each
     /// facet the shares it reads one facet after another. A level of
-    /// [`PARALLEL_LEVEL`] facets or more is computed in parallel tasks into
-    /// `loss_if_on` (a cache, stale until the refresh after the sweep) and
-    /// then copied into the shares; a smaller one on the calling thread. The
+    /// [`PARALLEL_LEVEL`] facets or more is computed in parallel tasks, each
+    /// setting its facets' shares in place (no facet of the level reads
+    /// them: an atomic view of the shares, [`atomic_f64_words`]); a smaller
+    /// one on the calling thread. The
     /// levels are worked out by the first sweep and kept in `levels` for the
     /// next ones ([`Levels::plan`]): the root's 30 sweeps plan once.
     pub(super) fn sweep_in_levels(
@@ -781,37 +803,24 @@ impl Solver<'_> {
                 }
                 continue;
             }
-            let facet_of_item = |i: usize| list.get(i).map(|&j| facets[j as usize] as usize);
-            let (Some(first), Some(end)) = (facet_of_item(0), facet_of_item(list.len() - 1)) else {
-                continue;
-            };
-            let staged = core::mem::take(&mut self.loss_if_on);
-            let this = &*self;
-            let (x0, x1) = (
-                this.facet_start[first] as usize,
-                this.facet_start[end + 1] as usize,
-            );
-            let at = |i: usize| facet_of_item(i).map_or(x1, |f| this.facet_start[f] as usize) - x0;
-            parallel::segments(hooks, &mut staged[x0..x1], list.len(), at, |items, part| {
-                let base = at(items.start);
-                for i in items {
-                    let Some(f) = facet_of_item(i) else {
-                        break;
-                    };
-                    let xs = this.facet_incidences(f);
-                    let lo = xs.start - x0 - base;
-                    let out = &mut part[lo..lo + xs.len()];
-                    match this.smoothed_shares(f, temperature) {
-                        Some(new) => out.copy_from_slice(&new[..xs.len()]),
-                        None => out.copy_from_slice(&this.shares[xs]),
+            // Facets of one level share no edge, so none reads another's
+            // shares: each task sets its facets' shares in place.
+            let shares = core::mem::take(&mut self.shares);
+            {
+                let words = atomic_f64_words(&mut *shares);
+                let this = &*self;
+                parallel::ranges(hooks, list.len(), |items| {
+                    for &j in &list[items] {
+                        let f = facets[j as usize] as usize;
+                        if let Some(new) = this.smoothed_shares_with(f, temperature, words) {
+                            for (x, v) in this.facet_incidences(f).zip(new) {
+                                words.set(x, v);
+                            }
+                        }
                     }
-                }
-            });
-            for &j in list {
-                let xs = self.facet_incidences(facets[j as usize] as usize);
-                self.shares[xs.clone()].copy_from_slice(&staged[xs]);
+                });
             }
-            self.loss_if_on = staged;
+            self.shares = shares;
         }
         true
     }
@@ -886,6 +895,17 @@ impl Solver<'_> {
     /// soft max stayed a call too (callgrind: 1 % more instructions a run).
     #[inline(always)]
     fn smoothed_shares(&self, f: usize, temperature: f64) -> Option<[f64; MAX_CONSTRAINTS]> {
+        self.smoothed_shares_with(f, temperature, &*self.shares)
+    }
+
+    /// [`Solver::smoothed_shares`] with the shares read from `shares`.
+    #[inline(always)]
+    fn smoothed_shares_with(
+        &self,
+        f: usize,
+        temperature: f64,
+        shares: impl Shares,
+    ) -> Option<[f64; MAX_CONSTRAINTS]> {
         if self.facet_state[f] != UNDECIDED {
             return None;
         }
@@ -899,7 +919,7 @@ impl Solver<'_> {
             for k in self.edge_span(e) {
                 let x = self.edge_incidences[k];
                 if x != own && self.facet_state[self.facet_of(x)] == UNDECIDED {
-                    top_other = top_other.max(self.shares[x as usize]);
+                    top_other = top_other.max(shares.share(x as usize));
                 }
             }
             let shift = if top_other.is_finite() {
@@ -924,7 +944,7 @@ impl Solver<'_> {
                 }
                 previous = x;
                 if x != own && self.facet_state[self.facet_of(x)] == UNDECIDED {
-                    class_sum += exp((self.shares[x as usize] - shift) / temperature);
+                    class_sum += exp((shares.share(x as usize) - shift) / temperature);
                 }
             }
             if previous != u32::MAX {
