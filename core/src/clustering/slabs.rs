@@ -96,6 +96,17 @@ fn slabs_bytes(n: usize) -> usize {
 struct Slots<'s>(&'s [AtomicU32]);
 
 impl Slots<'_> {
+    /// Point `p`'s words (`None` past the end): one bounds check for all of
+    /// them, where the growth's inner loop reads and sets several.
+    #[inline]
+    fn slot(&self, p: usize) -> Option<&[AtomicU32; WORDS]> {
+        let start = p.checked_mul(WORDS)?;
+        self.0
+            .get(start..start.checked_add(WORDS)?)?
+            .try_into()
+            .ok()
+    }
+
     #[inline]
     fn get(&self, p: usize, w: usize, or: u32) -> u32 {
         self.0.get(WORDS * p + w).map_or(or, |a| a.load(Relaxed))
@@ -236,7 +247,10 @@ impl Task for Slab<'_, '_, '_, '_> {
         }
         while let Some(top) = heap.pop() {
             let q = (top & 0xFFFF_FFFF) as usize;
-            let label = slots.label(q);
+            let Some(w) = slots.slot(q) else {
+                continue;
+            };
+            let label = w[LABEL].load(Relaxed);
             if label & FINAL != 0 {
                 continue;
             }
@@ -247,8 +261,8 @@ impl Task for Slab<'_, '_, '_, '_> {
                 crate::hint::prefetch(nb.rev_start.as_ptr().wrapping_add(next));
                 crate::hint::prefetch(slots.0.as_ptr().wrapping_add(WORDS * next));
             }
-            slots.set(q, LABEL, label | FINAL);
-            let from = slots.from(q) as usize;
+            w[LABEL].store(label | FINAL, Relaxed);
+            let from = w[FROM].load(Relaxed) as usize;
             slots.set_level(q, (top + 1).max(slots.level(from)));
             offer_within(shared, &mut heap, part, slab, q);
         }
@@ -292,17 +306,20 @@ fn offer_within(shared: &Shared, heap: &mut Heap, part: &[u8], slab: u8, q: usiz
                 cut = true;
                 continue;
             }
-            let t = slots.label(p);
-            if t & FINAL != 0 || t == label || slots.get(p, TRIED, NONE) == label {
+            let Some(w) = slots.slot(p) else {
+                continue;
+            };
+            let t = w[LABEL].load(Relaxed);
+            if t & FINAL != 0 || t == label || w[TRIED].load(Relaxed) == label {
                 continue;
             }
-            slots.set(p, TRIED, label);
+            w[TRIED].store(label, Relaxed);
             let e = guessed(guess, p, label).unwrap_or_else(|| ctx.cost(p, c));
-            if t == NONE || e < slots.best(p) {
+            if t == NONE || e < f32::from_bits(w[BEST].load(Relaxed)) {
                 // The level is set when it pops.
-                slots.set(p, LABEL, label);
-                slots.set(p, BEST, e.to_bits());
-                slots.set(p, FROM, q as u32);
+                w[LABEL].store(label, Relaxed);
+                w[BEST].store(e.to_bits(), Relaxed);
+                w[FROM].store(q as u32, Relaxed);
                 if !heap.push(key(e, nbr)) {
                     // Full: drop stale entries (final points, superseded costs).
                     heap.retain(|k| {

@@ -48,7 +48,7 @@ pub fn try_point_distances_in<'b, A: Alloc<'b>>(
     hooks: &dyn Progress,
 ) -> Result<()> {
     alloc.scratch(|s| {
-        let grid = FaceGrid::try_new_in(s, vertices, faces)?;
+        let grid = FaceGrid::try_new_in(s, vertices, faces, hooks)?;
         let n = points.len().min(out.len());
         let search = |i: usize, hint: Option<u32>| {
             let near = grid.nearest_from(points[i], hint.filter(|&f| f != u32::MAX));

@@ -22,16 +22,19 @@
 //! order, so every answer is the same whichever layout the grid takes.
 //!
 //! Cost: building, O(E + C) dense and O(E log E) sparse for E entries and C
-//! cells; a nearest-face query, O(faces in the rings searched), times log E
-//! sparse; it falls back to a scan of all faces when a ring would hold more
-//! cells than there are faces, so a query never costs more than O(F) beyond
-//! that.
+//! cells (the boxes, the count of entries and the dense layout's counting
+//! sort in parallel tasks, the sort by runs of x-slices of the cells, one a
+//! thread; the same grid on every thread count); a nearest-face query,
+//! O(faces in the rings searched), times log E sparse; it falls back to a
+//! scan of all faces when a ring would hold more cells than there are faces,
+//! so a query never costs more than O(F) beyond that.
 
 use crate::arena::Alloc;
 use crate::error::Result;
 use crate::math::point_triangle_dist2;
 use crate::math::V3;
 use crate::parallel;
+use crate::parallel::Task;
 use crate::progress::Progress;
 use core::ops::Range;
 
@@ -120,15 +123,80 @@ impl Run<'_> {
     }
 }
 
+/// Most runs of x-slices a dense grid's counting sort is cut into.
+const MAX_PARTS: usize = 8;
+
+/// One run of x-slices of a dense grid's cells, as a parallel task: it
+/// counts the entries of its cells (`starts`, from cell `first`), or, with
+/// `fill`, fills its cells' lists (`listed`, from position `base` of the
+/// whole list) from their ends, the faces from the last, as the counting
+/// sort on one thread does.
+struct Slices<'g, 'a> {
+    grid: &'g FaceGrid<'a>,
+    x: Range<u32>,
+    first: usize,
+    starts: &'g mut [u32],
+    listed: &'g mut [u32],
+    base: usize,
+    fill: bool,
+}
+
+impl Task for Slices<'_, '_> {
+    fn run(&mut self) {
+        let grid = self.grid;
+        let (x, first, base) = (self.x.clone(), self.first, self.base);
+        let count = !self.fill;
+        let mut visit = |f: usize| {
+            let Some((c0, c1)) = grid.cell_range(f) else {
+                return;
+            };
+            for cx in c0[0].max(x.start)..=c1[0].min(x.end.saturating_sub(1)) {
+                for cy in c0[1]..=c1[1] {
+                    for cz in c0[2]..=c1[2] {
+                        let Some(s) = grid
+                            .index([cx, cy, cz])
+                            .checked_sub(first)
+                            .and_then(|i| self.starts.get_mut(i))
+                        else {
+                            continue;
+                        };
+                        if count {
+                            *s += 1;
+                        } else {
+                            *s = s.saturating_sub(1);
+                            if let Some(slot) = (*s as usize)
+                                .checked_sub(base)
+                                .and_then(|i| self.listed.get_mut(i))
+                            {
+                                *slot = f as u32;
+                            }
+                        }
+                    }
+                }
+            }
+        };
+        if x.is_empty() {
+            return;
+        }
+        if count {
+            (0..grid.faces.len()).for_each(&mut visit);
+        } else {
+            (0..grid.faces.len()).rev().for_each(&mut visit);
+        }
+    }
+}
+
 impl<'a> FaceGrid<'a> {
-    /// The grid of `faces` over `vertices`, in memory from `alloc`. Faces with an
-    /// index out of range or a non-finite corner are left out (never found).
+    /// The grid of `faces` over `vertices`, in memory from `alloc`, built in
+    /// parallel tasks of `hooks`. Faces with an index out of range or a
+    /// non-finite corner are left out (never found).
     pub fn try_new_in<'b, A: Alloc<'b>>(
         alloc: &'a A,
         vertices: &'a [V3],
         faces: &'a [[u32; 3]],
+        hooks: &dyn Progress,
     ) -> Result<FaceGrid<'a>> {
-        Self::try_build_in(alloc, vertices, faces, true)
+        Self::try_build_in(alloc, vertices, faces, true, hooks)
     }
 
     /// [`FaceGrid::try_new_in`], in the dense layout when `dense` and the
@@ -138,21 +206,27 @@ impl<'a> FaceGrid<'a> {
         vertices: &'a [V3],
         faces: &'a [[u32; 3]],
         dense: bool,
+        hooks: &dyn Progress,
     ) -> Result<FaceGrid<'a>> {
         let mut lo = [f32::INFINITY; 3];
         let mut hi = [f32::NEG_INFINITY; 3];
         let mut extent = 0.0f64;
         let mut counted = 0usize;
-        let boxes = alloc.try_alloc_slice::<(V3, V3)>(
-            faces.len(),
-            ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
-        )?;
-        for (slot, &face) in boxes.iter_mut().zip(faces) {
-            let Some(t) = corners(vertices, face) else {
+        let empty = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
+        let boxes = alloc.try_alloc_slice::<(V3, V3)>(faces.len(), empty)?;
+        // The boxes in parallel tasks, then the bounds and the mean extent
+        // summed face after face (the same sum on every thread count).
+        parallel::rows(hooks, boxes, 1, |items, out: &mut [(V3, V3)]| {
+            for (slot, f) in out.iter_mut().zip(items) {
+                if let Some(t) = faces.get(f).and_then(|&face| corners(vertices, face)) {
+                    *slot = bbox(&t);
+                }
+            }
+        });
+        for &(a, b) in boxes.iter() {
+            if !(0..3).all(|k| a[k] <= b[k]) {
                 continue;
-            };
-            let (a, b) = bbox(&t);
-            *slot = (a, b);
+            }
             for k in 0..3 {
                 lo[k] = lo[k].min(a[k]);
                 hi[k] = hi[k].max(b[k]);
@@ -188,7 +262,7 @@ impl<'a> FaceGrid<'a> {
         let total = loop {
             grid.h = h;
             grid.dims = core::array::from_fn(|k| grid.cell_of_coord(hi[k], k) + 1);
-            let total = grid.count_entries();
+            let total = grid.count_entries(hooks);
             if total <= cap && grid.dims.iter().all(|&d| d <= MAX_CELLS_PER_AXIS) {
                 break total;
             }
@@ -204,30 +278,84 @@ impl<'a> FaceGrid<'a> {
         if dense && cells < total && fits_u32 {
             // A counting sort: each cell's count, their running sums (where
             // each cell's list ends), then the faces from the last, each
-            // cell's list filled from its end, so ascending in a cell.
+            // cell's list filled from its end, so ascending in a cell. The
+            // cells are cut into runs of x-slices, one a thread ([`Slices`]):
+            // each run's counts and lists are its own part of the arrays.
             let all = alloc.try_alloc_slice::<u32>(total + cells + 1, 0)?;
             let (listed, starts) = all.split_at_mut(total);
-            for f in 0..faces.len() {
-                grid.for_cells_of(f, |c| {
-                    if let Some(s) = starts.get_mut(grid.index(c)) {
-                        *s += 1;
+            let parts = hooks
+                .threads()
+                .clamp(1, MAX_PARTS)
+                .min(grid.dims[0] as usize);
+            let slice = grid.dims[1] as usize * grid.dims[2] as usize;
+            let x_at = |j: usize| (j * grid.dims[0] as usize / parts) as u32;
+            {
+                let mut rest = &mut starts[..cells];
+                let mut jobs: [Slices; MAX_PARTS] = core::array::from_fn(|j| {
+                    let x = if j < parts {
+                        x_at(j)..x_at(j + 1)
+                    } else {
+                        0..0
+                    };
+                    let n = x.len() * slice;
+                    let n = n.min(rest.len());
+                    let (own, tail) = core::mem::take(&mut rest).split_at_mut(n);
+                    rest = tail;
+                    Slices {
+                        grid: &grid,
+                        first: x.start as usize * slice,
+                        x,
+                        starts: own,
+                        listed: &mut [],
+                        base: 0,
+                        fill: false,
                     }
                 });
+                let mut tasks = jobs.each_mut().map(|j| j as &mut dyn Task);
+                hooks.run(&mut tasks[..parts]);
             }
             let mut sum = 0u32;
             for s in starts.iter_mut() {
                 sum = sum.saturating_add(*s);
                 *s = sum;
             }
-            for f in (0..faces.len()).rev() {
-                grid.for_cells_of(f, |c| {
-                    if let Some(s) = starts.get_mut(grid.index(c)) {
-                        *s = s.saturating_sub(1);
-                        if let Some(slot) = listed.get_mut(*s as usize) {
-                            *slot = f as u32;
-                        }
+            {
+                // A run's lists: from where its first cell's begins to where
+                // its last cell's ends.
+                let end_before = |c: usize| if c == 0 { 0 } else { starts[c - 1] as usize };
+                let bounds: [usize; MAX_PARTS + 1] =
+                    core::array::from_fn(|j| end_before(x_at(j.min(parts)) as usize * slice));
+                let (mut rest_s, mut rest_l) = (&mut starts[..cells], &mut *listed);
+                let mut jobs: [Slices; MAX_PARTS] = core::array::from_fn(|j| {
+                    let x = if j < parts {
+                        x_at(j)..x_at(j + 1)
+                    } else {
+                        0..0
+                    };
+                    let n = x.len() * slice;
+                    let n = n.min(rest_s.len());
+                    let (own, tail) = core::mem::take(&mut rest_s).split_at_mut(n);
+                    rest_s = tail;
+                    let m = if j < parts {
+                        bounds[j + 1] - bounds[j]
+                    } else {
+                        0
+                    };
+                    let m = m.min(rest_l.len());
+                    let (list, tail) = core::mem::take(&mut rest_l).split_at_mut(m);
+                    rest_l = tail;
+                    Slices {
+                        grid: &grid,
+                        first: x.start as usize * slice,
+                        x,
+                        starts: own,
+                        listed: list,
+                        base: bounds[j.min(parts)],
+                        fill: true,
                     }
                 });
+                let mut tasks = jobs.each_mut().map(|j| j as &mut dyn Task);
+                hooks.run(&mut tasks[..parts]);
             }
             grid.starts = starts;
             grid.listed = listed;
@@ -305,18 +433,22 @@ impl<'a> FaceGrid<'a> {
         }
     }
 
-    /// Entries the current cell size gives (saturating).
-    fn count_entries(&self) -> usize {
-        let mut total = 0usize;
-        for face in 0..self.faces.len() {
-            if let Some((c0, c1)) = self.cell_range(face) {
-                let cells = (0..3).fold(1usize, |n, k| {
-                    n.saturating_mul((c1[k] - c0[k]) as usize + 1)
-                });
-                total = total.saturating_add(cells);
+    /// Entries the current cell size gives (saturating), counted in
+    /// parallel tasks of `hooks`.
+    fn count_entries(&self, hooks: &dyn Progress) -> usize {
+        let counts = parallel::ranges(hooks, self.faces.len(), |faces| {
+            let mut total = 0usize;
+            for face in faces {
+                if let Some((c0, c1)) = self.cell_range(face) {
+                    let cells = (0..3).fold(1usize, |n, k| {
+                        n.saturating_mul((c1[k] - c0[k]) as usize + 1)
+                    });
+                    total = total.saturating_add(cells);
+                }
             }
-        }
-        total
+            total
+        });
+        counts.iter().fold(0usize, |a, &b| a.saturating_add(b))
     }
 
     /// The faces entered in cell `c` (each at most once), ascending.
@@ -622,7 +754,7 @@ impl<'a> FaceGrid<'a> {
 mod tests {
     use super::*;
     use crate::arena::Arena;
-    use crate::progress::Backwards;
+    use crate::progress::{Backwards, Claimed, Silent};
     use crate::rng::Rng;
     use std::mem::MaybeUninit;
     use std::vec;
@@ -673,22 +805,46 @@ mod tests {
         let mut buf = vec![MaybeUninit::uninit(); 1 << 21];
         let arena = Arena::new(&mut buf);
         let (v, f) = sheet(40);
-        let dense = FaceGrid::try_new_in(&arena, &v, &f).unwrap();
+        let dense = FaceGrid::try_new_in(&arena, &v, &f, &Silent).unwrap();
         assert!(!dense.starts.is_empty() && dense.entries.is_empty());
         assert_eq!(
             dense.starts.len(),
             dense.dims.iter().product::<u32>() as usize + 1
         );
         assert!(dense.starts.len() <= dense.listed.len());
-        let sorted = FaceGrid::try_build_in(&arena, &v, &f, false).unwrap();
+        let sorted = FaceGrid::try_build_in(&arena, &v, &f, false, &Silent).unwrap();
         assert!(sorted.starts.is_empty() && !sorted.entries.is_empty());
         assert_eq!(dense.entry_count(), sorted.entry_count());
         let (v, f) = soup(3, 400);
-        let grid = FaceGrid::try_new_in(&arena, &v, &f).unwrap();
+        let grid = FaceGrid::try_new_in(&arena, &v, &f, &Silent).unwrap();
         assert!(
             grid.starts.is_empty(),
             "the soup's grid has more cells than entries"
         );
+    }
+
+    /// The dense grid's counting sort cut into runs of x-slices, one a
+    /// thread, run in any order: the same counts and lists as on one thread.
+    #[test]
+    fn a_dense_grid_built_on_several_threads_is_the_one_built_on_one() {
+        let mut buf = vec![MaybeUninit::uninit(); 1 << 22];
+        let arena = Arena::new(&mut buf);
+        for (v, f) in [sheet(40), sheet(7), sheet(1)] {
+            let one = FaceGrid::try_new_in(&arena, &v, &f, &Silent).unwrap();
+            assert!(!one.starts.is_empty());
+            for threads in [2, 3, 8] {
+                let forwards = Claimed {
+                    backwards: false,
+                    ..Claimed::backwards(threads)
+                };
+                for many in [forwards, Claimed::backwards(threads)] {
+                    let grid = FaceGrid::try_new_in(&arena, &v, &f, &many).unwrap();
+                    assert_eq!(grid.dims, one.dims);
+                    assert_eq!(grid.starts, one.starts, "{threads} threads");
+                    assert_eq!(grid.listed, one.listed, "{threads} threads");
+                }
+            }
+        }
     }
 
     /// Both layouts list the same faces in every cell, in the same order, and
@@ -698,8 +854,8 @@ mod tests {
         let mut buf = vec![MaybeUninit::uninit(); 1 << 22];
         let arena = Arena::new(&mut buf);
         for (v, f) in [sheet(40), sheet(7), soup(3, 400)] {
-            let dense = FaceGrid::try_build_in(&arena, &v, &f, true).unwrap();
-            let sorted = FaceGrid::try_build_in(&arena, &v, &f, false).unwrap();
+            let dense = FaceGrid::try_build_in(&arena, &v, &f, true, &Silent).unwrap();
+            let sorted = FaceGrid::try_build_in(&arena, &v, &f, false, &Silent).unwrap();
             assert_eq!(dense.dims, sorted.dims);
             let [dx, dy, dz] = dense.dims;
             for c in
@@ -744,7 +900,7 @@ mod tests {
     fn nearest_equals_a_scan((v, f): (Vec<V3>, Vec<[u32; 3]>), dense: bool) {
         let mut buf = vec![MaybeUninit::uninit(); 1 << 20];
         let arena = Arena::new(&mut buf);
-        let grid = FaceGrid::try_build_in(&arena, &v, &f, dense).unwrap();
+        let grid = FaceGrid::try_build_in(&arena, &v, &f, dense, &Silent).unwrap();
         assert!(grid.entry_count() <= ENTRIES_PER_FACE * f.len());
         let mut rng = Rng::new(9);
         for i in 0..2000 {
@@ -784,7 +940,7 @@ mod tests {
     fn overlapping_pairs_are_those_of_a_scan((v, f): (Vec<V3>, Vec<[u32; 3]>), dense: bool) {
         let mut buf = vec![MaybeUninit::uninit(); 1 << 20];
         let arena = Arena::new(&mut buf);
-        let grid = FaceGrid::try_build_in(&arena, &v, &f, dense).unwrap();
+        let grid = FaceGrid::try_build_in(&arena, &v, &f, dense, &Silent).unwrap();
         let mut got = Vec::new();
         grid.for_each_overlapping_pair(|a, b| got.push((a, b)));
         let boxes: Vec<(V3, V3)> = f.iter().map(|t| bbox(&t.map(|i| v[i as usize]))).collect();
@@ -810,7 +966,7 @@ mod tests {
         let (v, f) = soup(5, 300);
         let mut buf = vec![MaybeUninit::uninit(); 1 << 20];
         let arena = Arena::new(&mut buf);
-        let grid = FaceGrid::try_new_in(&arena, &v, &f).unwrap();
+        let grid = FaceGrid::try_new_in(&arena, &v, &f, &Silent).unwrap();
         // Few pairs pass, and every pair passes.
         for keep in [7u32, 1] {
             let test = |a: u32, b: u32| (a + b) % keep == 0;
@@ -831,13 +987,13 @@ mod tests {
     fn empty_and_broken_meshes_find_nothing_and_do_not_panic() {
         let mut buf = vec![MaybeUninit::uninit(); 1 << 16];
         let arena = Arena::new(&mut buf);
-        let grid = FaceGrid::try_new_in(&arena, &[], &[]).unwrap();
+        let grid = FaceGrid::try_new_in(&arena, &[], &[], &Silent).unwrap();
         assert_eq!(grid.nearest([0.0; 3]), None);
         let v = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [f32::NAN, 1.0, 0.0]];
-        let grid = FaceGrid::try_new_in(&arena, &v, &[[0, 1, 2], [0, 1, 9]]).unwrap();
+        let grid = FaceGrid::try_new_in(&arena, &v, &[[0, 1, 2], [0, 1, 9]], &Silent).unwrap();
         assert_eq!(grid.nearest([0.0; 3]), None);
         let v = [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]];
-        let grid = FaceGrid::try_new_in(&arena, &v, &[[0, 1, 2]]).unwrap();
+        let grid = FaceGrid::try_new_in(&arena, &v, &[[0, 1, 2]], &Silent).unwrap();
         assert_eq!(grid.nearest([1.0, 0.0, 0.0]), Some((0, 1.0)));
     }
 }

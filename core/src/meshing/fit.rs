@@ -197,7 +197,7 @@ pub fn try_fit_vertices_in<'b, A: Alloc<'b>>(
             off.fill([0.0; 3]);
             s.scratch(|t| -> Result<()> {
                 let vertices = &*vertices;
-                let grid = FaceGrid::try_new_in(t, vertices, triangles)?;
+                let grid = FaceGrid::try_new_in(t, vertices, triangles, hooks)?;
                 // The searches in parallel (each point's nearest face into its
                 // hint), then the sums in point order. With more than one
                 // thread, and room under the arena's peak so far, the tasks

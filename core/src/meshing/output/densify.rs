@@ -248,7 +248,8 @@ pub(super) fn densify<'b, S: Alloc<'b>>(
             // split: splits in a pass touch disjoint faces).
             let (nv, nf) = (mesh.nv, mesh.nf);
             let count = s.scratch(|g| -> Result<usize> {
-                let grid = FaceGrid::try_new_in(g, &mesh.vertices[..nv], &mesh.triangles[..nf])?;
+                let grid =
+                    FaceGrid::try_new_in(g, &mesh.vertices[..nv], &mesh.triangles[..nf], hooks)?;
                 // Parallel tasks over ranges of clusters; each point is in
                 // one cluster, so each distance is set by one task.
                 let fresh = atomic_f32_bits(distances);

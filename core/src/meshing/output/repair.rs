@@ -37,7 +37,7 @@ pub(super) fn mark_tangles<'b, S: Alloc<'b>>(
                 }
             }
         };
-        let grid = FaceGrid::try_new_in(t, generators, faces)?;
+        let grid = FaceGrid::try_new_in(t, generators, faces, hooks)?;
         let crossing = |a: u32, b: u32| {
             let (fa, fb) = (faces[a as usize], faces[b as usize]);
             faces_intersect(fa, &corners(a), fb, &corners(b))
