@@ -144,44 +144,46 @@ struct Slices<'g, 'a> {
 impl Task for Slices<'_, '_> {
     fn run(&mut self) {
         let grid = self.grid;
+        if self.x.is_empty() {
+            return;
+        }
         let (x, first, base) = (self.x.clone(), self.first, self.base);
-        let count = !self.fill;
+        let [_, dy, dz] = grid.dims.map(|d| d as usize);
+        let (starts, listed, fill) = (&mut *self.starts, &mut *self.listed, self.fill);
         let mut visit = |f: usize| {
             let Some((c0, c1)) = grid.cell_range(f) else {
                 return;
             };
-            for cx in c0[0].max(x.start)..=c1[0].min(x.end.saturating_sub(1)) {
+            for cx in c0[0].max(x.start)..=c1[0].min(x.end - 1) {
                 for cy in c0[1]..=c1[1] {
-                    for cz in c0[2]..=c1[2] {
-                        let Some(s) = grid
-                            .index([cx, cy, cz])
-                            .checked_sub(first)
-                            .and_then(|i| self.starts.get_mut(i))
-                        else {
-                            continue;
-                        };
-                        if count {
-                            *s += 1;
-                        } else {
-                            *s = s.saturating_sub(1);
-                            if let Some(slot) = (*s as usize)
-                                .checked_sub(base)
-                                .and_then(|i| self.listed.get_mut(i))
-                            {
-                                *slot = f as u32;
-                            }
+                    // The cells of this x and y: one run of the part's counts.
+                    let at = (cx as usize * dy + cy as usize) * dz;
+                    let Some(run) = (at + c0[2] as usize)
+                        .checked_sub(first)
+                        .and_then(|lo| starts.get_mut(lo..lo + (c1[2] - c0[2]) as usize + 1))
+                    else {
+                        continue;
+                    };
+                    if !fill {
+                        run.iter_mut().for_each(|s| *s += 1);
+                        continue;
+                    }
+                    for s in run {
+                        *s = s.saturating_sub(1);
+                        if let Some(slot) = (*s as usize)
+                            .checked_sub(base)
+                            .and_then(|i| listed.get_mut(i))
+                        {
+                            *slot = f as u32;
                         }
                     }
                 }
             }
         };
-        if x.is_empty() {
-            return;
-        }
-        if count {
-            (0..grid.faces.len()).for_each(&mut visit);
-        } else {
+        if fill {
             (0..grid.faces.len()).rev().for_each(&mut visit);
+        } else {
+            (0..grid.faces.len()).for_each(&mut visit);
         }
     }
 }

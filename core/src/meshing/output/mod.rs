@@ -218,6 +218,43 @@ pub(super) fn edge_table<'s, 'b, S: Alloc<'b>>(
     Ok(table)
 }
 
+/// An edge table ([`edge_table`]) with where each lower vertex's edges
+/// begin in it: an edge's faces are found among its lower vertex's few edges
+/// instead of by a binary search of the whole table. 4 bytes a vertex more.
+pub(super) struct EdgeIndex<'s> {
+    pub(super) table: &'s [(u64, u32)],
+    start: &'s [u32],
+}
+
+impl<'s> EdgeIndex<'s> {
+    pub(super) fn try_new_in<'b, S: Alloc<'b>>(s: &'s S, faces: &[[u32; 3]]) -> Result<Self> {
+        let table = edge_table(s, faces)?;
+        let vertices = table.last().map_or(0, |&(k, _)| (k >> 32) as usize + 1);
+        let start = s.try_alloc_slice::<u32>(vertices + 1, 0)?;
+        for &(k, _) in table {
+            if let Some(c) = start.get_mut((k >> 32) as usize + 1) {
+                *c += 1;
+            }
+        }
+        for v in 1..start.len() {
+            start[v] += start[v - 1];
+        }
+        Ok(EdgeIndex { table, start })
+    }
+
+    /// The faces of edge `key` (see [`faces_of`]).
+    pub(super) fn faces_of(&self, key: u64) -> &'s [(u64, u32)] {
+        let u = (key >> 32) as usize;
+        match (self.start.get(u), self.start.get(u + 1)) {
+            (Some(&a), Some(&b)) => self
+                .table
+                .get(a as usize..b as usize)
+                .map_or(&[], |run| faces_of(run, key)),
+            _ => &[],
+        }
+    }
+}
+
 /// Edges of `faces` that only one face has.
 fn boundary_edges<'b, S: Alloc<'b>>(s: &S, faces: &[[u32; 3]]) -> Result<u32> {
     let table = edge_table(s, faces)?;

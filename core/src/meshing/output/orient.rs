@@ -3,7 +3,7 @@
 //! where a component cannot be oriented, its seam of clashing edges placed by
 //! the flood or, on request, the shortest of several.
 
-use super::{dir, edge_table, faces_of, key, NO};
+use super::{dir, key, EdgeIndex, NO};
 use crate::arena::Alloc;
 use crate::error::Result;
 use crate::math::V3;
@@ -43,7 +43,7 @@ fn cycle(f: [u32; 3], flipped: bool) -> [u32; 3] {
 /// edge opposite to `f`. O(log F) per edge.
 fn for_each_link(
     faces: &[[u32; 3]],
-    table: &[(u64, u32)],
+    table: &EdgeIndex,
     f: usize,
     flipped: bool,
     mut visit: impl FnMut(usize, bool),
@@ -51,7 +51,7 @@ fn for_each_link(
     let cf = cycle(faces[f], flipped);
     for k in 0..3 {
         let (u, v) = (cf[k], cf[(k + 1) % 3]);
-        for &(_, g) in faces_of(table, key(u, v)) {
+        for &(_, g) in table.faces_of(key(u, v)) {
             let g = g as usize;
             if g != f {
                 visit(g, dir(faces[g], u, v) == 1);
@@ -61,7 +61,7 @@ fn for_each_link(
 }
 
 /// Clashing links at face `f` and all its links.
-fn clashes_at(faces: &[[u32; 3]], table: &[(u64, u32)], flip: &[bool], f: usize) -> (u32, u32) {
+fn clashes_at(faces: &[[u32; 3]], table: &EdgeIndex, flip: &[bool], f: usize) -> (u32, u32) {
     let (mut bad, mut links) = (0u32, 0u32);
     for_each_link(faces, table, f, flip[f], |g, want| {
         links += 1;
@@ -77,7 +77,7 @@ fn clashes_at(faces: &[[u32; 3]], table: &[(u64, u32)], flip: &[bool], f: usize)
 /// removes a clash, so O((F + clashes) log F).
 fn shorten(
     faces: &[[u32; 3]],
-    table: &[(u64, u32)],
+    table: &EdgeIndex,
     flip: &mut [bool],
     members: &[u32],
     queue: &mut [u32],
@@ -119,7 +119,7 @@ fn shorten(
 /// `order`; returns their count. O(F log F) over the faces reached.
 fn flood(
     faces: &[[u32; 3]],
-    table: &[(u64, u32)],
+    table: &EdgeIndex,
     from: usize,
     flip: &mut [bool],
     order: &mut [u32],
@@ -163,7 +163,7 @@ pub(super) fn orient<'b, S: Alloc<'b>>(
 ) -> Result<(u32, u32)> {
     let nf = faces.len();
     s.scratch(|t| {
-        let table = edge_table(t, faces)?;
+        let table = &EdgeIndex::try_new_in(t, faces)?;
         let flip = t.try_alloc_slice::<bool>(nf, false)?;
         let trial = t.try_alloc_slice::<bool>(nf, false)?;
         let comp = t.try_alloc_slice::<u32>(nf, NO)?;
