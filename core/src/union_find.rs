@@ -117,9 +117,11 @@ impl<'a> UnionFind<'a> {
 /// then [`UnionFind::into_roots`] give. With two threads or more in `hooks`
 /// and at least 4,096 elements a thread, the elements are cut into
 /// contiguous parts, one a thread: each part's task joins the links within it
-/// in its own part of `parent`, then the calling thread joins the links
-/// between parts. The sets are the same whatever the cut, and so are their
-/// lowest elements. O(n + links) time, no memory but `parent`.
+/// in its own part of `parent` and flags the elements with a link leaving
+/// the part, then the calling thread joins those elements' links between
+/// parts (a pass over the flags, not over every link). The sets are the same
+/// whatever the cut, and so are their lowest elements. O(n + links) time, no
+/// memory but `parent`.
 pub fn roots_of_links<'a, 'r, R, L>(
     hooks: &dyn Progress,
     parent: &'a mut [u32],
@@ -131,7 +133,12 @@ where
     L: Fn(usize, u32) -> bool + Sync,
 {
     let n = parent.len();
-    let parts = parts_of(hooks, n);
+    // (Parts only below 2^31 elements: the join across them flags entries.)
+    let parts = if n < ACROSS as usize {
+        parts_of(hooks, n)
+    } else {
+        1
+    };
     let per = n.div_ceil(parts);
     let part_of = |i: usize| {
         let start = i / per * per;
@@ -158,20 +165,54 @@ where
         UnionFind::new(&mut *parent);
     }
     // Every tree lies in one part now (all of them when there is one): join
-    // the links that leave their element's part.
-    let mut sets = UnionFind { parent };
+    // the links that leave their element's part, found by the parts' tasks
+    // ([`ACROSS`]) when parts were cut.
+    if parts < 2 {
+        let mut sets = UnionFind { parent };
+        for i in 0..n {
+            sets.union_all(i as u32, row(i).iter().copied().filter(|&j| linked(i, j)));
+        }
+        return sets.into_roots();
+    }
     for i in 0..n {
-        let own = if parts >= 2 { part_of(i) } else { 0..0 };
-        let mut across = row(i)
-            .iter()
-            .copied()
-            .filter(|&j| !own.contains(&(j as usize)) && linked(i, j))
-            .peekable();
-        if across.peek().is_some() {
-            sets.union_all(i as u32, across);
+        if parent[i] & ACROSS == 0 {
+            continue;
+        }
+        parent[i] &= !ACROSS;
+        let own = part_of(i);
+        for &j in row(i) {
+            if !own.contains(&(j as usize)) && linked(i, j) {
+                join_flagged(parent, i as u32, j);
+            }
         }
     }
-    sets.into_roots()
+    UnionFind { parent }.into_roots()
+}
+
+/// The flag on an element's parent entry, after the parts' tasks of
+/// [`roots_of_links`], when it has a link leaving its part.
+const ACROSS: u32 = 1 << 31;
+
+/// [`UnionFind::union`] over parent entries some of which carry [`ACROSS`]
+/// (each keeps its flag; indices out of range are ignored).
+fn join_flagged(parent: &mut [u32], a: u32, b: u32) {
+    let mut find = |mut x: u32| {
+        while let Some(&e) = parent.get(x as usize) {
+            let p = e & !ACROSS;
+            if p == x {
+                break;
+            }
+            let grand = parent.get(p as usize).map_or(p, |&g| g & !ACROSS);
+            parent[x as usize] = grand | (e & ACROSS);
+            x = grand;
+        }
+        x
+    };
+    let (ra, rb) = (find(a), find(b));
+    let (lo, hi) = (ra.min(rb) as usize, ra.max(rb) as usize);
+    if lo != hi && hi < parent.len() {
+        parent[hi] = lo as u32 | (parent[hi] & ACROSS);
+    }
 }
 
 /// The contiguous parts a union-find pass over `n` items is cut into: one
@@ -206,9 +247,16 @@ where
                 .map(|(_, d)| d as u32);
             sets.union_all((i - start) as u32, within);
         }
-        // Local roots are the parts' lowest elements, so global ones too.
-        for r in sets.into_roots() {
+        // Local roots are the parts' lowest elements, so global ones too;
+        // an element with a link leaving the part is flagged for the join
+        // across parts ([`ACROSS`]).
+        let roots = sets.into_roots();
+        for (i, r) in (start..).zip(roots.iter_mut()) {
             *r += start as u32;
+            let out = |&j: &u32| !(start..start + len).contains(&(j as usize));
+            if (self.row)(i).iter().any(|j| out(j) && (self.linked)(i, *j)) {
+                *r |= ACROSS;
+            }
         }
     }
 }
