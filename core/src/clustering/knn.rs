@@ -26,6 +26,7 @@ use crate::arena::{padded_bytes, Alloc, Arena};
 use crate::error::{Error, Result};
 use crate::math::{dist2, V3};
 use crate::parallel;
+use crate::parallel::Task;
 use crate::params::MAX_K;
 use crate::progress::{tick, Progress, Stage};
 use crate::validate::Bounds;
@@ -352,7 +353,7 @@ pub fn try_fill_knn_rows<'b, A: Alloc<'b>>(
     tick(progress, stage, 0, n as u64)?;
     let mut linear_scans = 0u32;
     a.scratch(|s| -> Result<()> {
-        let grid = build_grid(s, points, k)?;
+        let grid = build_grid(s, points, k, &*progress)?;
         parallel::rows_in_waves(
             progress,
             stage,
@@ -666,12 +667,22 @@ fn visit_ring(grid: &Grid, c: [u32; 3], r: i64, mut f: impl FnMut(usize)) {
 /// with the packed key) and its index go into one word and the words are
 /// sorted; else the indices are sorted by two lookups of packed keys. The
 /// same order either way.
+/// A slice of keys to sort, as a parallel task.
+struct Sort<'s>(&'s mut [u64]);
+
+impl Task for Sort<'_> {
+    fn run(&mut self) {
+        self.0.sort_unstable();
+    }
+}
+
 fn sort_by_cell(
     grid: &Grid,
     points: &[V3],
     keys: &mut [u64],
     order: &mut [u32],
     direct: bool,
+    hooks: &dyn Progress,
 ) -> usize {
     let n = points.len().min(keys.len()).min(order.len());
     let (keys, order) = (&mut keys[..n], &mut order[..n]);
@@ -685,11 +696,36 @@ fn sort_by_cell(
             let [x, y, z] = grid.cell_of(*p).map(u64::from);
             *k = ((x * dy + y) * dz + z) << 32 | i as u64;
         }
-        keys.sort_unstable();
-        for (o, &k) in order.iter_mut().zip(keys.iter()) {
+        // The halves sorted in two parallel tasks, then merged into `order`
+        // (the keys are distinct: the same order as one sort of them all).
+        let (a, b) = keys.split_at_mut(n / 2);
+        let mut halves = [Sort(a), Sort(b)];
+        let mut tasks = halves.each_mut().map(|h| h as &mut dyn Task);
+        hooks.run(&mut tasks);
+        let [Sort(a), Sort(b)] = halves;
+        let (mut i, mut j, mut cells, mut last) = (0, 0, 0, u64::MAX);
+        for o in order.iter_mut() {
+            let k = match (a.get(i), b.get(j)) {
+                (Some(&x), Some(&y)) if x < y => {
+                    i += 1;
+                    x
+                }
+                (_, Some(&y)) => {
+                    j += 1;
+                    y
+                }
+                (Some(&x), None) => {
+                    i += 1;
+                    x
+                }
+                (None, None) => break,
+            };
             *o = k as u32;
+            if k >> 32 != last {
+                (cells, last) = (cells + 1, k >> 32);
+            }
         }
-        return 1 + keys.windows(2).filter(|w| w[0] >> 32 != w[1] >> 32).count();
+        return cells.max(1);
     }
     for (i, (k, p)) in keys.iter_mut().zip(points).enumerate() {
         *k = pack(grid.cell_of(*p));
@@ -706,6 +742,7 @@ fn build_grid<'s>(
     s: &'s crate::arena::Scratch<'_, '_>,
     points: &[V3],
     k: usize,
+    hooks: &dyn Progress,
 ) -> Result<Grid<'s>> {
     let n = points.len();
     let Bounds { lo, hi, diag } = Bounds::of(points);
@@ -742,7 +779,7 @@ fn build_grid<'s>(
             for a in 0..3 {
                 grid.dims[a] = ((ext[a] / h) as u32).saturating_add(1).min(1 << 21);
             }
-            cells = sort_by_cell(&grid, points, keys, order, true);
+            cells = sort_by_cell(&grid, points, keys, order, true, hooks);
             let ratio = target / (n as f32 / cells as f32);
             if attempt == 3 || (0.5..=2.0).contains(&ratio) {
                 break;
@@ -862,7 +899,7 @@ fn reverse_edges_in<'a>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::progress::Silent;
+    use crate::progress::{Claimed, Silent};
     use crate::rng::Rng;
     use core::mem::MaybeUninit;
     use std::vec;
@@ -897,8 +934,15 @@ mod tests {
             };
             let (mut k1, mut o1) = (vec![0u64; cloud.len()], vec![0u32; cloud.len()]);
             let (mut k2, mut o2) = (k1.clone(), o1.clone());
-            let c1 = sort_by_cell(&grid, &cloud, &mut k1, &mut o1, true);
-            let c2 = sort_by_cell(&grid, &cloud, &mut k2, &mut o2, false);
+            let c1 = sort_by_cell(
+                &grid,
+                &cloud,
+                &mut k1,
+                &mut o1,
+                true,
+                &Claimed::backwards(2),
+            );
+            let c2 = sort_by_cell(&grid, &cloud, &mut k2, &mut o2, false, &Silent);
             assert_eq!((c1, &o1), (c2, &o2), "h {h}");
             // The word sort ran where the box fits 32 bits (its keys hold
             // the point's index in the low half).
