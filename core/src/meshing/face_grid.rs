@@ -291,74 +291,19 @@ impl<'a> FaceGrid<'a> {
                 .min(grid.dims[0] as usize);
             let slice = grid.dims[1] as usize * grid.dims[2] as usize;
             let x_at = |j: usize| (j * grid.dims[0] as usize / parts) as u32;
-            {
-                let mut rest = &mut starts[..cells];
-                let mut jobs: [Slices; MAX_PARTS] = core::array::from_fn(|j| {
-                    let x = if j < parts {
-                        x_at(j)..x_at(j + 1)
-                    } else {
-                        0..0
-                    };
-                    let n = x.len() * slice;
-                    let n = n.min(rest.len());
-                    let (own, tail) = core::mem::take(&mut rest).split_at_mut(n);
-                    rest = tail;
-                    Slices {
-                        grid: &grid,
-                        first: x.start as usize * slice,
-                        x,
-                        starts: own,
-                        listed: &mut [],
-                        base: 0,
-                        fill: false,
-                    }
-                });
-                let mut tasks = jobs.each_mut().map(|j| j as &mut dyn Task);
-                hooks.run(&mut tasks[..parts]);
-            }
+            let none = [0; MAX_PARTS + 1];
+            grid.sort_pass(parts, &mut starts[..cells], &mut [], &none, hooks);
             let mut sum = 0u32;
             for s in starts.iter_mut() {
                 sum = sum.saturating_add(*s);
                 *s = sum;
             }
-            {
-                // A run's lists: from where its first cell's begins to where
-                // its last cell's ends.
-                let end_before = |c: usize| if c == 0 { 0 } else { starts[c - 1] as usize };
-                let bounds: [usize; MAX_PARTS + 1] =
-                    core::array::from_fn(|j| end_before(x_at(j.min(parts)) as usize * slice));
-                let (mut rest_s, mut rest_l) = (&mut starts[..cells], &mut *listed);
-                let mut jobs: [Slices; MAX_PARTS] = core::array::from_fn(|j| {
-                    let x = if j < parts {
-                        x_at(j)..x_at(j + 1)
-                    } else {
-                        0..0
-                    };
-                    let n = x.len() * slice;
-                    let n = n.min(rest_s.len());
-                    let (own, tail) = core::mem::take(&mut rest_s).split_at_mut(n);
-                    rest_s = tail;
-                    let m = if j < parts {
-                        bounds[j + 1] - bounds[j]
-                    } else {
-                        0
-                    };
-                    let m = m.min(rest_l.len());
-                    let (list, tail) = core::mem::take(&mut rest_l).split_at_mut(m);
-                    rest_l = tail;
-                    Slices {
-                        grid: &grid,
-                        first: x.start as usize * slice,
-                        x,
-                        starts: own,
-                        listed: list,
-                        base: bounds[j.min(parts)],
-                        fill: true,
-                    }
-                });
-                let mut tasks = jobs.each_mut().map(|j| j as &mut dyn Task);
-                hooks.run(&mut tasks[..parts]);
-            }
+            // A run's lists: from where its first cell's begins to where its
+            // last cell's ends.
+            let end_before = |c: usize| if c == 0 { 0 } else { starts[c - 1] as usize };
+            let bounds: [usize; MAX_PARTS + 1] =
+                core::array::from_fn(|j| end_before(x_at(j.min(parts)) as usize * slice));
+            grid.sort_pass(parts, &mut starts[..cells], listed, &bounds, hooks);
             grid.starts = starts;
             grid.listed = listed;
             return Ok(grid);
@@ -374,6 +319,53 @@ impl<'a> FaceGrid<'a> {
         entries.sort_unstable();
         grid.entries = entries;
         Ok(grid)
+    }
+
+    /// One pass of the dense layout's counting sort over `parts` runs of
+    /// x-slices ([`Slices`]), one task each: the counts into `starts` (the
+    /// cells' counts) when `listed` is empty, else each run's lists filled
+    /// into its part of `listed`, which begins at `bounds[run]` of the whole.
+    fn sort_pass(
+        &self,
+        parts: usize,
+        starts: &mut [u32],
+        listed: &mut [u32],
+        bounds: &[usize; MAX_PARTS + 1],
+        hooks: &dyn Progress,
+    ) {
+        let fill = !listed.is_empty();
+        let slice = self.dims[1] as usize * self.dims[2] as usize;
+        let x_at = |j: usize| (j * self.dims[0] as usize / parts) as u32;
+        let (mut rest_s, mut rest_l) = (starts, listed);
+        let mut jobs: [Slices; MAX_PARTS] = core::array::from_fn(|j| {
+            let x = if j < parts {
+                x_at(j)..x_at(j + 1)
+            } else {
+                0..0
+            };
+            let n = (x.len() * slice).min(rest_s.len());
+            let (own, tail) = core::mem::take(&mut rest_s).split_at_mut(n);
+            rest_s = tail;
+            let m = if fill && j < parts {
+                bounds[j + 1] - bounds[j]
+            } else {
+                0
+            };
+            let m = m.min(rest_l.len());
+            let (list, tail) = core::mem::take(&mut rest_l).split_at_mut(m);
+            rest_l = tail;
+            Slices {
+                grid: self,
+                first: x.start as usize * slice,
+                x,
+                starts: own,
+                listed: list,
+                base: bounds[j.min(parts)],
+                fill,
+            }
+        });
+        let mut tasks = jobs.each_mut().map(|j| j as &mut dyn Task);
+        hooks.run(&mut tasks[..parts.min(MAX_PARTS)]);
     }
 
     /// Cell `c`'s index in the dense layout (`(x dims[1] + y) dims[2] + z`).
