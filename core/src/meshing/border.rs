@@ -216,6 +216,8 @@ pub fn try_border_clusters_in<'a, 'b, A: Alloc<'b>>(
             if !(gap > angle && frayed[j]) {
                 return None;
             }
+            // The member farthest into the gap: where the data ends, its
+            // neighbours all lie behind it or along the border.
             let g = generators[j];
             let (mut reach, mut end) = (0.0f32, first);
             for &i in pts {
