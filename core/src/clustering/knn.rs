@@ -661,12 +661,6 @@ fn visit_ring(grid: &Grid, c: [u32; 3], r: i64, mut f: impl FnMut(usize)) {
     }
 }
 
-/// `order` = the points' indices by (cell of `grid`, index), `keys` its
-/// scratch (one per point); returns the occupied cells. With `direct` and a
-/// box of at most 2^32 cells, each point's cell index in the box (ascending
-/// with the packed key) and its index go into one word and the words are
-/// sorted; else the indices are sorted by two lookups of packed keys. The
-/// same order either way.
 /// A slice of keys to sort, as a parallel task.
 struct Sort<'s>(&'s mut [u64]);
 
@@ -676,6 +670,12 @@ impl Task for Sort<'_> {
     }
 }
 
+/// `order` = the points' indices by (cell of `grid`, index), `keys` its
+/// scratch (one per point); returns the occupied cells. With `direct` and a
+/// box of at most 2^32 cells, each point's cell index in the box (ascending
+/// with the packed key) and its index go into one word, the words sorted in
+/// two halves as parallel tasks of `hooks` and merged; else the indices are
+/// sorted by two lookups of packed keys. The same order either way.
 fn sort_by_cell(
     grid: &Grid,
     points: &[V3],

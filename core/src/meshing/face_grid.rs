@@ -285,25 +285,13 @@ impl<'a> FaceGrid<'a> {
             // each run's counts and lists are its own part of the arrays.
             let all = alloc.try_alloc_slice::<u32>(total + cells + 1, 0)?;
             let (listed, starts) = all.split_at_mut(total);
-            let parts = hooks
-                .threads()
-                .clamp(1, MAX_PARTS)
-                .min(grid.dims[0] as usize);
-            let slice = grid.dims[1] as usize * grid.dims[2] as usize;
-            let x_at = |j: usize| (j * grid.dims[0] as usize / parts) as u32;
-            let none = [0; MAX_PARTS + 1];
-            grid.sort_pass(parts, &mut starts[..cells], &mut [], &none, hooks);
+            grid.sort_pass(&mut starts[..cells], None, hooks);
             let mut sum = 0u32;
             for s in starts.iter_mut() {
                 sum = sum.saturating_add(*s);
                 *s = sum;
             }
-            // A run's lists: from where its first cell's begins to where its
-            // last cell's ends.
-            let end_before = |c: usize| if c == 0 { 0 } else { starts[c - 1] as usize };
-            let bounds: [usize; MAX_PARTS + 1] =
-                core::array::from_fn(|j| end_before(x_at(j.min(parts)) as usize * slice));
-            grid.sort_pass(parts, &mut starts[..cells], listed, &bounds, hooks);
+            grid.sort_pass(&mut starts[..cells], Some(listed), hooks);
             grid.starts = starts;
             grid.listed = listed;
             return Ok(grid);
@@ -321,21 +309,27 @@ impl<'a> FaceGrid<'a> {
         Ok(grid)
     }
 
-    /// One pass of the dense layout's counting sort over `parts` runs of
-    /// x-slices ([`Slices`]), one task each: the counts into `starts` (the
-    /// cells' counts) when `listed` is empty, else each run's lists filled
-    /// into its part of `listed`, which begins at `bounds[run]` of the whole.
-    fn sort_pass(
-        &self,
-        parts: usize,
-        starts: &mut [u32],
-        listed: &mut [u32],
-        bounds: &[usize; MAX_PARTS + 1],
-        hooks: &dyn Progress,
-    ) {
-        let fill = !listed.is_empty();
+    /// One pass of the dense layout's counting sort over runs of x-slices
+    /// ([`Slices`]), one a thread of `hooks` ([`MAX_PARTS`] at most): the
+    /// counts into `starts` (the cells' counts) without `listed`, else, with
+    /// `starts` the ends of the cells' lists, each run's lists filled into its
+    /// part of `listed` (from where its first cell's list begins to where its
+    /// last cell's ends).
+    fn sort_pass(&self, starts: &mut [u32], listed: Option<&mut [u32]>, hooks: &dyn Progress) {
+        let parts = hooks
+            .threads()
+            .clamp(1, MAX_PARTS)
+            .min(self.dims[0] as usize);
         let slice = self.dims[1] as usize * self.dims[2] as usize;
         let x_at = |j: usize| (j * self.dims[0] as usize / parts) as u32;
+        let fill = listed.is_some();
+        let end_before = |c: usize| match c.checked_sub(1) {
+            Some(c) if fill => starts.get(c).map_or(0, |&e| e as usize),
+            _ => 0,
+        };
+        let bounds: [usize; MAX_PARTS + 1] =
+            core::array::from_fn(|j| end_before(x_at(j.min(parts)) as usize * slice));
+        let listed = listed.unwrap_or(&mut []);
         let (mut rest_s, mut rest_l) = (starts, listed);
         let mut jobs: [Slices; MAX_PARTS] = core::array::from_fn(|j| {
             let x = if j < parts {
@@ -365,7 +359,7 @@ impl<'a> FaceGrid<'a> {
             }
         });
         let mut tasks = jobs.each_mut().map(|j| j as &mut dyn Task);
-        hooks.run(&mut tasks[..parts.min(MAX_PARTS)]);
+        hooks.run(&mut tasks[..parts]);
     }
 
     /// Cell `c`'s index in the dense layout (`(x dims[1] + y) dims[2] + z`).

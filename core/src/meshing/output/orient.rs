@@ -40,7 +40,8 @@ fn cycle(f: [u32; 3], flipped: bool) -> [u32; 3] {
 
 /// Calls `visit(g, wants_flip)` for every face `g` that shares an edge with
 /// face `f` (turned over when `flipped`), with the flip that makes `g` run the
-/// edge opposite to `f`. O(log F) per edge.
+/// edge opposite to `f`. O(d) per edge, for the d edges at its lower vertex
+/// (a few: [`EdgeIndex`]).
 fn for_each_link(
     faces: &[[u32; 3]],
     table: &EdgeIndex,
@@ -74,7 +75,7 @@ fn clashes_at(faces: &[[u32; 3]], table: &EdgeIndex, flip: &[bool], f: usize) ->
 /// links clash turns over (which removes at least one clash), until none is
 /// left; faces are visited in `members` order, then as their neighbours turn
 /// (a queue in `queue`, `queued` all false on entry and on return). Each turn
-/// removes a clash, so O((F + clashes) log F).
+/// removes a clash, so O((F + clashes) d) (see [`for_each_link`]).
 fn shorten(
     faces: &[[u32; 3]],
     table: &EdgeIndex,
@@ -116,7 +117,8 @@ fn shorten(
 /// `flip`), across every link to a face `claim` takes (true the first time
 /// it is asked about a face), giving each the orientation that runs the
 /// shared edge opposite. The faces reached, `from` first, are left in
-/// `order`; returns their count. O(F log F) over the faces reached.
+/// `order`; returns their count. O(F d) over the faces reached (see
+/// [`for_each_link`]).
 fn flood(
     faces: &[[u32; 3]],
     table: &EdgeIndex,
@@ -151,7 +153,7 @@ fn flood(
 /// A component is flooded breadth-first from its lowest face. An orientable
 /// one comes out the same from any face; in one that is not (the selection
 /// folded over somewhere, which edge constraints cannot see) the clashes
-/// fall on a seam placed by `seam`. O(F log F) time for [`Seam::Flood`] and
+/// fall on a seam placed by `seam`. O(F d) time (see [`for_each_link`]) for [`Seam::Flood`] and
 /// for orientable components, [`FLOODS`] times that for [`Seam::Shortest`];
 /// O(F) scratch.
 pub(super) fn orient<'b, S: Alloc<'b>>(

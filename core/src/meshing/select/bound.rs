@@ -778,9 +778,9 @@ impl Solver<'_> {
     /// [`PARALLEL_LEVEL`] facets or more is computed in parallel tasks, each
     /// setting its facets' shares in place (no facet of the level reads
     /// them: an atomic view of the shares, [`atomic_f64_words`]); a smaller
-    /// one on the calling thread. The
-    /// levels are worked out by the first sweep and kept in `levels` for the
-    /// next ones ([`Levels::plan`]): the root's 30 sweeps plan once.
+    /// one on the calling thread. The levels are worked out by the first
+    /// sweep and kept in `levels` for the next ones ([`Levels::plan`]): the
+    /// root's 30 sweeps plan once.
     pub(super) fn sweep_in_levels(
         &mut self,
         facets: &[u32],
