@@ -34,6 +34,9 @@ use core::marker::PhantomData;
 use core::mem::{align_of, size_of, MaybeUninit};
 use core::ptr::NonNull;
 
+use crate::parallel;
+use crate::progress::Progress;
+
 /// The arena could not satisfy an allocation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
@@ -57,6 +60,11 @@ impl fmt::Display for Exhausted {
 
 /// Every allocation starts on, and takes, a multiple of this many bytes.
 pub const GRANULE: usize = 8;
+
+/// Fewest bytes an allocation of [`Scratch::try_alloc_slice_on`] fills on
+/// several threads (below it, handing out the tasks costs more than they
+/// save).
+pub const PARALLEL_FILL: usize = 64 * 1024;
 
 /// `bytes` rounded up to a multiple of [`GRANULE`] (`None` on overflow).
 fn granules(bytes: usize) -> Option<usize> {
@@ -270,12 +278,99 @@ impl<'buf> Arena<'buf> {
         }
     }
 
+    /// `count` slots at byte `offset`, slot `i` set to `f(i)` by the tasks of
+    /// `hooks` ([`parallel::TASKS`] ranges, on whatever threads it has), and
+    /// handed out: a large allocation is not filled on the calling thread
+    /// alone while the others wait.
+    #[allow(clippy::mut_from_ref)] // each offset is handed out once: see `fill_at`
+    fn fill_at_with<T: Copy + Send>(
+        &self,
+        offset: usize,
+        count: usize,
+        f: impl Fn(usize) -> T + Sync,
+        hooks: &dyn Progress,
+    ) -> &mut [T] {
+        if size_of::<T>() == 0 {
+            return self.fill_at(offset, count, f(0));
+        }
+        // SAFETY: as in `fill_at`, the `count` slots at `offset` are free,
+        // aligned for `T` and handed to no one else; as `MaybeUninit<T>` they
+        // may be formed before they are written.
+        let slots = unsafe {
+            let ptr = self.base.as_ptr().add(offset).cast::<MaybeUninit<T>>();
+            core::slice::from_raw_parts_mut(ptr, count)
+        };
+        let written = parallel::rows(hooks, slots, 1, |items, part: &mut [MaybeUninit<T>]| {
+            let len = items.len();
+            for (s, i) in part.iter_mut().zip(items) {
+                s.write(f(i));
+            }
+            len
+        });
+        // A task that did not run (a `Progress` that skipped it) returned 0:
+        // its range is written here, so no slot is left unwritten.
+        for (t, &w) in written.iter().enumerate() {
+            let items = parallel::range(count, t);
+            if w != items.len() {
+                for i in items {
+                    slots[i].write(f(i));
+                }
+            }
+        }
+        // SAFETY: every slot was written above (by its task, or here when its
+        // task reported fewer), so the `MaybeUninit<T>`s are initialised `T`s
+        // of the same layout.
+        unsafe { core::slice::from_raw_parts_mut(slots.as_mut_ptr().cast::<T>(), count) }
+    }
+
+    /// [`Arena::fill_at`] with `value`, on the threads of `hooks` when it has
+    /// more than one and the slots take at least [`PARALLEL_FILL`] bytes.
+    #[allow(clippy::mut_from_ref)] // each offset is handed out once: see `fill_at`
+    fn fill_at_on<T: Copy + Send + Sync>(
+        &self,
+        offset: usize,
+        count: usize,
+        value: T,
+        hooks: &dyn Progress,
+    ) -> &mut [T] {
+        if hooks.threads() < 2 || count.saturating_mul(size_of::<T>()) < PARALLEL_FILL {
+            return self.fill_at(offset, count, value);
+        }
+        self.fill_at_with(offset, count, |_| value, hooks)
+    }
+
     /// Allocate `count` copies of `value`, persistent for the arena's life.
     /// Cost: O(count).
     #[allow(clippy::mut_from_ref)] // disjoint regions: see `fill_at`
     pub fn try_alloc_slice<T: Copy>(&self, count: usize, value: T) -> Result<&mut [T], Exhausted> {
         let offset = self.reserve_front::<T>(count)?;
         Ok(self.fill_at(offset, count, value))
+    }
+
+    /// [`Arena::try_alloc_slice`], filled by the threads of `hooks` when it
+    /// is large (at least [`PARALLEL_FILL`] bytes): the same slice, sooner.
+    #[allow(clippy::mut_from_ref)] // disjoint regions: see `fill_at`
+    pub fn try_alloc_slice_on<T: Copy + Send + Sync>(
+        &self,
+        count: usize,
+        value: T,
+        hooks: &dyn Progress,
+    ) -> Result<&mut [T], Exhausted> {
+        let offset = self.reserve_front::<T>(count)?;
+        Ok(self.fill_at_on(offset, count, value, hooks))
+    }
+
+    /// `count` values persistent for the arena's life, value `i` being
+    /// `f(i)`, computed in the tasks of `hooks` (on whatever threads it has).
+    #[allow(clippy::mut_from_ref)] // disjoint regions: see `fill_at`
+    pub fn try_alloc_from_fn_on<T: Copy + Send>(
+        &self,
+        count: usize,
+        f: impl Fn(usize) -> T + Sync,
+        hooks: &dyn Progress,
+    ) -> Result<&mut [T], Exhausted> {
+        let offset = self.reserve_front::<T>(count)?;
+        Ok(self.fill_at_with(offset, count, f, hooks))
     }
 
     /// Copy `src` into a persistent allocation.
@@ -393,6 +488,34 @@ impl<'buf> Scratch<'_, 'buf> {
         Ok(self.arena.fill_at(offset, count, value))
     }
 
+    /// [`Scratch::try_alloc_slice`], filled by the threads of `hooks` when it
+    /// is large (at least [`PARALLEL_FILL`] bytes): the same slice, sooner.
+    #[allow(clippy::mut_from_ref)] // disjoint regions: see `Arena::fill_at`
+    pub fn try_alloc_slice_on<T: Copy + Send + Sync>(
+        &self,
+        count: usize,
+        value: T,
+        hooks: &dyn Progress,
+    ) -> Result<&mut [T], Exhausted> {
+        self.check_innermost(count)?;
+        let offset = self.arena.reserve_back::<T>(count)?;
+        Ok(self.arena.fill_at_on(offset, count, value, hooks))
+    }
+
+    /// `count` values for the life of this scope, value `i` being `f(i)`,
+    /// computed in the tasks of `hooks` (on whatever threads it has).
+    #[allow(clippy::mut_from_ref)] // disjoint regions: see `Arena::fill_at`
+    pub fn try_alloc_from_fn_on<T: Copy + Send>(
+        &self,
+        count: usize,
+        f: impl Fn(usize) -> T + Sync,
+        hooks: &dyn Progress,
+    ) -> Result<&mut [T], Exhausted> {
+        self.check_innermost(count)?;
+        let offset = self.arena.reserve_back::<T>(count)?;
+        Ok(self.arena.fill_at_with(offset, count, f, hooks))
+    }
+
     /// Copy `src` into this scope.
     #[allow(clippy::mut_from_ref)] // disjoint regions: see `Arena::fill_at`
     pub fn try_alloc_copy<T: Copy + Default>(&self, src: &[T]) -> Result<&mut [T], Exhausted> {
@@ -438,6 +561,27 @@ pub trait Alloc<'buf> {
         Ok(out)
     }
 
+    /// [`Alloc::try_alloc_slice`], filled by the threads of `hooks` when it
+    /// is large (at least [`PARALLEL_FILL`] bytes): the same slice, sooner.
+    #[allow(clippy::mut_from_ref)]
+    fn try_alloc_slice_on<T: Copy + Send + Sync>(
+        &self,
+        count: usize,
+        value: T,
+        hooks: &dyn Progress,
+    ) -> Result<&mut [T], Exhausted>;
+
+    /// `count` values, value `i` being `f(i)`, computed in the tasks of
+    /// `hooks` (on whatever threads it has): for values that cost more than a
+    /// copy to make.
+    #[allow(clippy::mut_from_ref)]
+    fn try_alloc_from_fn_on<T: Copy + Send>(
+        &self,
+        count: usize,
+        f: impl Fn(usize) -> T + Sync,
+        hooks: &dyn Progress,
+    ) -> Result<&mut [T], Exhausted>;
+
     /// A nested scratch scope.
     fn scratch<R>(&self, f: impl FnOnce(&Scratch<'_, 'buf>) -> R) -> R;
 
@@ -448,6 +592,24 @@ pub trait Alloc<'buf> {
 impl<'buf> Alloc<'buf> for Arena<'buf> {
     fn try_alloc_slice<T: Copy>(&self, count: usize, value: T) -> Result<&mut [T], Exhausted> {
         Arena::try_alloc_slice(self, count, value)
+    }
+
+    fn try_alloc_slice_on<T: Copy + Send + Sync>(
+        &self,
+        count: usize,
+        value: T,
+        hooks: &dyn Progress,
+    ) -> Result<&mut [T], Exhausted> {
+        Arena::try_alloc_slice_on(self, count, value, hooks)
+    }
+
+    fn try_alloc_from_fn_on<T: Copy + Send>(
+        &self,
+        count: usize,
+        f: impl Fn(usize) -> T + Sync,
+        hooks: &dyn Progress,
+    ) -> Result<&mut [T], Exhausted> {
+        Arena::try_alloc_from_fn_on(self, count, f, hooks)
     }
 
     fn scratch<R>(&self, f: impl FnOnce(&Scratch<'_, 'buf>) -> R) -> R {
@@ -462,6 +624,24 @@ impl<'buf> Alloc<'buf> for Arena<'buf> {
 impl<'buf> Alloc<'buf> for Scratch<'_, 'buf> {
     fn try_alloc_slice<T: Copy>(&self, count: usize, value: T) -> Result<&mut [T], Exhausted> {
         Scratch::try_alloc_slice(self, count, value)
+    }
+
+    fn try_alloc_slice_on<T: Copy + Send + Sync>(
+        &self,
+        count: usize,
+        value: T,
+        hooks: &dyn Progress,
+    ) -> Result<&mut [T], Exhausted> {
+        Scratch::try_alloc_slice_on(self, count, value, hooks)
+    }
+
+    fn try_alloc_from_fn_on<T: Copy + Send>(
+        &self,
+        count: usize,
+        f: impl Fn(usize) -> T + Sync,
+        hooks: &dyn Progress,
+    ) -> Result<&mut [T], Exhausted> {
+        Scratch::try_alloc_from_fn_on(self, count, f, hooks)
     }
 
     fn scratch<R>(&self, f: impl FnOnce(&Scratch<'_, 'buf>) -> R) -> R {
@@ -580,6 +760,56 @@ mod tests {
     fn buf(n: usize) -> Buf {
         assert!(n <= 256);
         Buf([MaybeUninit::uninit(); 256])
+    }
+
+    /// Claims two threads and runs only the tasks `keep` lets through, the
+    /// last first: a host that skipped tasks must not leave slots unwritten.
+    struct Skipping {
+        keep: fn(usize) -> bool,
+    }
+
+    impl Progress for Skipping {
+        fn report(&mut self, _: crate::Stage, _: u64, _: u64) -> crate::progress::Flow {
+            crate::progress::Flow::Continue
+        }
+
+        fn run(&self, tasks: &mut [&mut dyn crate::Task]) {
+            let keep = self.keep;
+            for (t, task) in tasks.iter_mut().enumerate().rev() {
+                if keep(t) {
+                    task.run();
+                }
+            }
+        }
+
+        fn threads(&self) -> usize {
+            2
+        }
+    }
+
+    #[test]
+    fn fills_on_threads_are_the_fills_of_one() {
+        let mut b = std::vec![MaybeUninit::uninit(); 4 << 20];
+        let a = Arena::new(&mut b);
+        let n = PARALLEL_FILL; // u32s: four times the threshold in bytes
+        for keep in [(|_| true) as fn(usize) -> bool, |t| t % 3 == 1, |_| false] {
+            let hooks = Skipping { keep };
+            // What the slots held before is not what they are filled with.
+            a.scratch(|s| s.try_alloc_slice::<u32>(5 * n, u32::MAX).map(|_| ()))
+                .unwrap();
+            a.scratch(|s| {
+                let one = s.try_alloc_slice::<u32>(n, 7).unwrap();
+                let many = s.try_alloc_slice_on::<u32>(n, 7, &hooks).unwrap();
+                assert_eq!(one, many);
+                let made = s
+                    .try_alloc_from_fn_on(n + 3, |i| (i as u64) * 3, &hooks)
+                    .unwrap();
+                assert!(made.iter().enumerate().all(|(i, &v)| v == i as u64 * 3));
+                // Below the threshold, and in the persistent region.
+                let small = s.arena().try_alloc_slice_on::<u8>(5, 2, &hooks).unwrap();
+                assert_eq!(small, &[2; 5]);
+            });
+        }
     }
 
     #[test]

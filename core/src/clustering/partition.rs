@@ -1076,7 +1076,8 @@ pub(crate) fn partition(
     let warm = start == Start::Warm && ctx.planes.diffused.is_empty();
     // (Guessing ahead with kept quadrics: the same instructions, and the
     // clustering of the bunny 4 ms slower on two threads.)
-    let guess = s.try_alloc_slice::<(u32, f32)>(if warm { GUESSES * n } else { 0 }, (NONE, 0.0))?;
+    let guess =
+        s.try_alloc_slice_on::<(u32, f32)>(if warm { GUESSES * n } else { 0 }, (NONE, 0.0), hooks)?;
     if warm {
         let last = &*labels;
         parallel::rows(hooks, guess, GUESSES, |points, rows: &mut [(u32, f32)]| {

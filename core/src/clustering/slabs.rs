@@ -666,12 +666,13 @@ pub(crate) fn grow_in_slabs(
         u32::MAX,
         u32::MAX,
     ];
-    let words = s.try_alloc_slice::<[u32; WORDS]>(n, open).ok()?;
-    let part = s.try_alloc_slice::<u8>(n, 0).ok()?;
-    let marks = s.try_alloc_slice::<u8>(n, 0).ok()?;
-    let levels = s.try_alloc_slice::<u64>(n, 0).ok()?;
-    let points = s.try_alloc_slice::<u32>(n, 0).ok()?;
-    let list = s.try_alloc_slice::<u32>(n, 0).ok()?;
+    // Filled on every thread: 6 MB at a million points.
+    let words = s.try_alloc_slice_on::<[u32; WORDS]>(n, open, hooks).ok()?;
+    let part = s.try_alloc_slice_on::<u8>(n, 0, hooks).ok()?;
+    let marks = s.try_alloc_slice_on::<u8>(n, 0, hooks).ok()?;
+    let levels = s.try_alloc_slice_on::<u64>(n, 0, hooks).ok()?;
+    let points = s.try_alloc_slice_on::<u32>(n, 0, hooks).ok()?;
+    let list = s.try_alloc_slice_on::<u32>(n, 0, hooks).ok()?;
     let slots = Slots(atomic_u32s(words.as_flattened_mut()));
     let marks = atomic_bytes(marks);
     let (axis, bounds) = bounds;

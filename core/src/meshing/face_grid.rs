@@ -215,16 +215,18 @@ impl<'a> FaceGrid<'a> {
         let mut extent = 0.0f64;
         let mut counted = 0usize;
         let empty = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
-        let boxes = alloc.try_alloc_slice::<(V3, V3)>(faces.len(), empty)?;
         // The boxes in parallel tasks, then the bounds and the mean extent
         // summed face after face (the same sum on every thread count).
-        parallel::rows(hooks, boxes, 1, |items, out: &mut [(V3, V3)]| {
-            for (slot, f) in out.iter_mut().zip(items) {
-                if let Some(t) = faces.get(f).and_then(|&face| corners(vertices, face)) {
-                    *slot = bbox(&t);
-                }
-            }
-        });
+        let boxes = alloc.try_alloc_from_fn_on(
+            faces.len(),
+            |f| {
+                faces
+                    .get(f)
+                    .and_then(|&face| corners(vertices, face))
+                    .map_or(empty, |t| bbox(&t))
+            },
+            hooks,
+        )?;
         for &(a, b) in boxes.iter() {
             if !(0..3).all(|k| a[k] <= b[k]) {
                 continue;
