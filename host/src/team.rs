@@ -15,7 +15,7 @@
 //! number), then every thread takes tasks from a shared count of those left,
 //! tagged with the round number, so a helper that comes late can never take
 //! a task of a later round: several at a time while many are left, one at a
-//! time near the end (see [`work`]); the caller returns when all have
+//! time near the end (see `work`); the caller returns when all have
 //! finished. Which thread runs a task does not matter: core combines the
 //! results in task order.
 
