@@ -351,6 +351,7 @@ pub(super) fn densify<'b, S: Alloc<'b>>(
                     tol,
                     // At a point of the data, in its nearest face.
                     &|_| true,
+                    hooks,
                 ) else {
                     continue;
                 };

@@ -7,6 +7,7 @@ use crate::arena::Alloc;
 use crate::error::Result;
 use crate::math::{add, cross, dist2, dot, norm, sub, V3};
 use crate::meshing::candidates::degenerate;
+use crate::progress::Progress;
 
 /// Loops shorter than this are filled even along the border of the data: a real
 /// border is long, while a spurious one (a few clusters that look like border on a
@@ -44,6 +45,7 @@ pub(super) fn fill_holes<'b, S: Alloc<'b>>(
     widen: &mut [bool],
     max_hole: u32,
     tol: f32,
+    hooks: &dyn Progress,
 ) -> Result<Filled> {
     let mut out = Filled::default();
     along.fill(false);
@@ -171,6 +173,7 @@ pub(super) fn fill_holes<'b, S: Alloc<'b>>(
                         !faces_of(table, key(a, c)).is_empty()
                             || added[..n_added].contains(&key(a, c))
                     },
+                    hooks,
                 ) && !{
                     // The last ear closes the loop: it must not repeat a face.
                     let mut tri = faces[nf + out.faces + n - 3];
@@ -230,6 +233,7 @@ fn fill_loop(
     generators: &[V3],
     tol: f32,
     known: impl Fn(u32, u32) -> bool,
+    hooks: &dyn Progress,
 ) -> bool {
     let g = |j: u32| generators.get(j as usize).copied().unwrap_or([0.0; 3]);
     let mut len = poly.len();
@@ -266,7 +270,7 @@ fn fill_loop(
                 break None;
             };
             let ear = [poly[(i + len - 1) % len], poly[i], poly[(i + 1) % len]];
-            if i >= 128 || untangled(&faces[..at + ears], &[], &[ear], generators) {
+            if i >= 128 || untangled(&faces[..at + ears], &[], &[ear], generators, hooks) {
                 break Some(i);
             }
             refused |= 1 << i;
@@ -279,7 +283,7 @@ fn fill_loop(
     }
     let (a, b, c) = (poly[0], poly[1], poly[2]);
     if degenerate(g(a), g(b), g(c), tol)
-        || !untangled(&faces[..at + ears], &[], &[[a, b, c]], generators)
+        || !untangled(&faces[..at + ears], &[], &[[a, b, c]], generators, hooks)
     {
         return false;
     }

@@ -7,6 +7,7 @@ use crate::arena::Alloc;
 use crate::error::Result;
 use crate::math::{closest_on_triangle, dist2, dot, V3};
 use crate::meshing::candidates::{degenerate, Members};
+use crate::progress::Progress;
 
 /// Below this barycentric coordinate, a skipped cluster's generator goes into
 /// the edge opposite it rather than into the face.
@@ -36,6 +37,7 @@ pub(super) struct Inserted {
 /// hold.
 /// `faces` must have room for two more faces per insertion; clusters beyond
 /// that room are left out. Cost: O(faces) per skipped cluster.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn insert_skipped<'b, S: Alloc<'b>>(
     s: &S,
     faces: &mut [[u32; 3]],
@@ -44,6 +46,7 @@ pub(super) fn insert_skipped<'b, S: Alloc<'b>>(
     members: &Members,
     tol: f32,
     joins: &dyn Fn(&[[u32; 3]]) -> bool,
+    hooks: &dyn Progress,
 ) -> Result<(usize, Inserted)> {
     let m = generators.len();
     s.scratch(|t| {
@@ -74,7 +77,7 @@ pub(super) fn insert_skipped<'b, S: Alloc<'b>>(
                 }
             }
             let grown = nearest.and_then(|(f, _, bary)| {
-                split_at(faces, nf, f, bary, j as u32, generators, tol, joins)
+                split_at(faces, nf, f, bary, j as u32, generators, tol, joins, hooks)
             });
             match grown {
                 Some(n) => {
@@ -110,6 +113,7 @@ pub(super) fn split_at(
     positions: &[V3],
     tol: f32,
     joins: &dyn Fn(&[[u32; 3]]) -> bool,
+    hooks: &dyn Progress,
 ) -> Option<usize> {
     if f >= nf || nf + 2 > faces.len() {
         return None;
@@ -160,12 +164,13 @@ pub(super) fn split_at(
                 &on_edge[..count],
                 &halves[..2 * count],
                 positions,
+                hooks,
             )
             && joins(&halves[..2 * count])
     };
     let face_ok = || {
         sound(&in_face, faces[f])
-            && untangled(&faces[..nf], &[f], &in_face, positions)
+            && untangled(&faces[..nf], &[f], &in_face, positions, hooks)
             && joins(&in_face)
     };
     // The edge split when the point is near the edge, else the face split,

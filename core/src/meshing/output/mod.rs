@@ -473,10 +473,11 @@ pub fn try_mesh_in<'o, 'b, W: Alloc<'b>>(
             f.iter()
                 .all(|t| of(t[0]) == of(t[1]) && of(t[1]) == of(t[2]))
         };
-        let (nf, tubes) = join_pieces(s, faces, nf, fill_end, generators, tol, &one_piece)?;
+        let (nf, tubes) = join_pieces(s, faces, nf, fill_end, generators, tol, &one_piece, hooks)?;
         let (nf, bubbles, components) = drop_bubbles(s, faces, nf)?;
         // Clusters the selection skipped go into the mesh.
-        let (nf, inserted) = insert_skipped(s, faces, nf, generators, members, tol, &one_piece)?;
+        let (nf, inserted) =
+            insert_skipped(s, faces, nf, generators, members, tol, &one_piece, hooks)?;
         let faces = &mut faces[..nf];
         // Vertex-manifold: the corners at one generator, grouped by the faces
         // linked through the edges at it.
@@ -941,6 +942,7 @@ fn repair_selection<'b, S: Alloc<'b>>(
             widen,
             max_hole,
             tol,
+            hooks,
         )?;
         filled.faces += more.faces;
         filled.holes += more.holes;
@@ -968,7 +970,7 @@ fn repair_selection<'b, S: Alloc<'b>>(
             }
             // A thin part hanging at one vertex joins the surface by a neck.
             if necked < NECK_ROUNDS {
-                let (grown, necks) = neck_pinches(s, faces, nf, fill_end, generators, tol)?;
+                let (grown, necks) = neck_pinches(s, faces, nf, fill_end, generators, tol, hooks)?;
                 if necks > 0 {
                     necked += 1;
                     neck_count += necks;

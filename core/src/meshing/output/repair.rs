@@ -10,8 +10,13 @@ use crate::math::{dist2, dot, sub, to_d3, V3};
 use crate::meshing::candidates::degenerate;
 use crate::meshing::face_grid::FaceGrid;
 use crate::meshing::intersect::{faces_intersect, folded};
+use crate::parallel;
 use crate::progress::Progress;
 use crate::union_find::UnionFind;
+
+/// Fewest faces [`untangled`] scans in parallel tasks (fewer: handing them
+/// out costs about what it saves).
+pub(super) const PARALLEL_SCAN: usize = 1024;
 
 /// Marks in `cut` both faces of every pair of `faces` (over `generators`) that
 /// intersect other than at what they share ([`faces_intersect`], exact), and
@@ -201,6 +206,7 @@ pub(super) fn drop_bubbles<'b, S: Alloc<'b>>(
 /// to another across the empty space between them). Faces are appended from
 /// `nf` while room is left below `cap`. Returns the face count and the tubes
 /// made. O(B F) per piece of B faces.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn join_pieces<'b, S: Alloc<'b>>(
     s: &S,
     faces: &mut [[u32; 3]],
@@ -209,6 +215,7 @@ pub(super) fn join_pieces<'b, S: Alloc<'b>>(
     generators: &[V3],
     tol: f32,
     joins: &dyn Fn(&[[u32; 3]]) -> bool,
+    hooks: &dyn Progress,
 ) -> Result<(usize, u32)> {
     s.scratch(|t| {
         let Pieces { root, detached, .. } = Pieces::try_new_in(t, &faces[..nf])?;
@@ -268,7 +275,10 @@ pub(super) fn join_pieces<'b, S: Alloc<'b>>(
                     let [p, q, w] = f.map(at);
                     degenerate(p, q, w, tol)
                 });
-                if flat || !untangled(&faces[..nf], &[fa, fb], &tube, generators) || !joins(&tube) {
+                if flat
+                    || !untangled(&faces[..nf], &[fa, fb], &tube, generators, hooks)
+                    || !joins(&tube)
+                {
                     continue;
                 }
                 faces[fa] = tube[0];
@@ -300,6 +310,7 @@ pub(super) fn neck_pinches<'b, S: Alloc<'b>>(
     cap: usize,
     generators: &[V3],
     tol: f32,
+    hooks: &dyn Progress,
 ) -> Result<(usize, u32)> {
     s.scratch(|t| {
         let m = generators.len();
@@ -393,7 +404,7 @@ pub(super) fn neck_pinches<'b, S: Alloc<'b>>(
                         let [p, q, r] = f.map(at);
                         degenerate(p, q, r, tol)
                     })
-                    || !untangled(&faces[..nf], &[fa, fb], &new, generators)
+                    || !untangled(&faces[..nf], &[fa, fb], &new, generators, hooks)
                 {
                     continue;
                 }
@@ -467,12 +478,15 @@ pub(super) fn mark_pinches<'b, S: Alloc<'b>>(
 
 /// Whether the faces `new`, which replace `faces[r]` for each `r` of
 /// `replaced`, cross no other face of `faces` (exact test, candidates by
-/// bounding box) and fold onto no face they share an edge with. O(faces).
+/// bounding box) and fold onto no face they share an edge with. O(faces),
+/// the faces scanned in the parallel tasks of `hooks` when there are at
+/// least [`PARALLEL_SCAN`] (the answer does not depend on the order).
 pub(super) fn untangled(
     faces: &[[u32; 3]],
     replaced: &[usize],
     new: &[[u32; 3]],
     generators: &[V3],
+    hooks: &dyn Progress,
 ) -> bool {
     let at = |c: u32| to_d3(generators.get(c as usize).copied().unwrap_or([0.0; 3]));
     let corners = |f: [u32; 3]| f.map(at);
@@ -521,14 +535,18 @@ pub(super) fn untangled(
             matches!((third(a), third(b)), (Some(c1), Some(c2)) if folded(at(u), at(v), at(c1), at(c2)))
         })
     };
-    let others = faces
-        .iter()
-        .enumerate()
-        .filter(|&(h, f)| near(f) && !replaced.contains(&h));
-    for (_, &b) in others {
-        if (0..new.len()).any(|i| clash(i, b)) {
+    let crosses = |h: usize| {
+        faces.get(h).is_some_and(|&b| {
+            near(&b) && !replaced.contains(&h) && (0..new.len()).any(|i| clash(i, b))
+        })
+    };
+    if hooks.threads() > 1 && faces.len() >= PARALLEL_SCAN {
+        let found = parallel::ranges(hooks, faces.len(), |mut part| part.any(crosses));
+        if found.contains(&true) {
             return false;
         }
+    } else if (0..faces.len()).any(crosses) {
+        return false;
     }
     // The new faces among themselves.
     !(1..new.len()).any(|i| new[..i].iter().any(|&b| clash(i, b)))

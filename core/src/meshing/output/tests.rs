@@ -1,4 +1,5 @@
 use super::*;
+use crate::progress::Silent;
 use std::mem::MaybeUninit;
 use std::vec;
 use std::vec::Vec;
@@ -51,7 +52,19 @@ fn fill(faces: &[[u32; 3]], v: &[V3], max_hole: u32) -> (Vec<[u32; 3]>, Filled, 
     all[..nf].copy_from_slice(faces);
     let clash = arena.try_alloc_slice::<bool>(all.len(), false).unwrap();
     orient(&arena, &mut all[..nf], v, clash, Seam::Flood).unwrap();
-    let filled = fill_holes(&arena, all, nf, v, &[], &mut [], &mut [], max_hole, 1e-6).unwrap();
+    let filled = fill_holes(
+        &arena,
+        all,
+        nf,
+        v,
+        &[],
+        &mut [],
+        &mut [],
+        max_hole,
+        1e-6,
+        &Silent,
+    )
+    .unwrap();
     let total = nf + filled.faces;
     clash.fill(false);
     let (_, bad) = orient(&arena, &mut all[..total], v, clash, Seam::Flood).unwrap();
@@ -200,8 +213,17 @@ fn a_skipped_cluster_goes_into_the_mesh_only_where_joins_allows() {
         let arena = Arena::new(&mut buf);
         let mut faces = f.clone();
         faces.extend([[0; 3]; 4]);
-        let (nf, done) =
-            insert_skipped(&arena, &mut faces, f.len(), &v, &members, 1e-6, joins).unwrap();
+        let (nf, done) = insert_skipped(
+            &arena,
+            &mut faces,
+            f.len(),
+            &v,
+            &members,
+            1e-6,
+            joins,
+            &Silent,
+        )
+        .unwrap();
         (faces[..nf].to_vec(), done.clusters, done.left_out)
     };
     let (faces, inserted, left) = run(&|_| true);
@@ -268,7 +290,8 @@ fn a_closed_piece_of_any_size_beside_the_largest_is_joined_by_a_tube_where_joins
         let nf = faces.len();
         faces.extend([[0; 3]; 8]);
         let cap = faces.len();
-        let (nf, tubes) = join_pieces(&arena, &mut faces, nf, cap, &v, 1e-6, joins).unwrap();
+        let (nf, tubes) =
+            join_pieces(&arena, &mut faces, nf, cap, &v, 1e-6, joins, &Silent).unwrap();
         let (_, bubbles, pieces) = drop_bubbles(&arena, &mut faces, nf).unwrap();
         (oriented, faces[..nf].to_vec(), tubes, bubbles, pieces)
     };
@@ -382,5 +405,50 @@ fn the_edge_table_is_every_edge_sorted() {
         let arena = Arena::new(&mut buf);
         let got = arena.scratch(|s| edge_table(s, &faces).map(|t| t.to_vec()));
         assert_eq!(got.unwrap(), want);
+    }
+}
+
+#[test]
+fn untangled_says_the_same_on_one_thread_and_in_tasks() {
+    use crate::progress::Claimed;
+    // A 40 x 40 grid of squares in z = 0 (3,200 faces: scanned in tasks),
+    // and triangles through it, above it, and on it sharing an edge.
+    let side = 41u32;
+    let mut v: Vec<V3> = (0..side * side)
+        .map(|i| [(i % side) as f32, (i / side) as f32, 0.0])
+        .collect();
+    let mut faces = Vec::new();
+    for y in 0..side - 1 {
+        for x in 0..side - 1 {
+            let c = y * side + x;
+            faces.push([c, c + 1, c + side + 1]);
+            faces.push([c, c + side + 1, c + side]);
+        }
+    }
+    assert!(faces.len() >= repair::PARALLEL_SCAN);
+    let base = v.len() as u32;
+    let mut cases = Vec::new();
+    for (i, &(x, y)) in [(3.3f32, 7.6f32), (20.5, 20.5), (39.2, 0.4), (10.0, 10.0)]
+        .iter()
+        .enumerate()
+    {
+        let k = base + 3 * i as u32;
+        // Upright through the plane: crosses the faces there.
+        v.extend([[x, y, -1.0], [x + 0.3, y, 1.0], [x, y + 0.3, 1.0]]);
+        cases.push(([k, k + 1, k + 2], false));
+    }
+    let k = v.len() as u32;
+    v.extend([[5.0, 5.0, 1.0], [6.0, 5.0, 1.0], [5.0, 6.0, 2.0]]);
+    cases.push(([k, k + 1, k + 2], true));
+    // On the grid's first face's edge, folded flat onto it.
+    let k = v.len() as u32;
+    v.push([0.5, -0.5, 0.0]);
+    cases.push(([1, 0, k], true));
+    cases.push(([0, 1, side + 1], false));
+    for (new, clear) in cases {
+        let one = repair::untangled(&faces, &[], &[new], &v, &Silent);
+        let tasks = repair::untangled(&faces, &[], &[new], &v, &Claimed::backwards(2));
+        assert_eq!(one, clear, "{new:?}");
+        assert_eq!(tasks, clear, "{new:?} in tasks");
     }
 }
