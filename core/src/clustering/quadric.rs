@@ -209,7 +209,9 @@ pub(crate) fn try_planes_with<'a>(
 ) -> Result<Planes<'a>> {
     let n = points.len();
     tick(progress, Stage::Quadrics, 0, n as u64)?;
-    let planes = arena.try_alloc_slice::<Plane>(n, [0.0; 4])?;
+    // Filled on every thread: the first touch of fresh pages, faults and
+    // all, is not left to the calling thread alone.
+    let planes = arena.try_alloc_slice_on::<Plane>(n, [0.0; 4], &*progress)?;
     parallel::rows_in_waves(
         progress,
         Stage::Quadrics,
@@ -223,13 +225,11 @@ pub(crate) fn try_planes_with<'a>(
         |()| {},
     )?;
     let planes: &'a [Plane] = planes;
-    let diffused = arena.try_alloc_slice::<Local>(if local { n } else { 0 }, [0.0; 10])?;
-    parallel::rows(&*progress, diffused, 1, |items, out: &mut [Local]| {
-        for (i, q) in items.zip(out.iter_mut()) {
-            *q = local_of(planes, points, nb, i);
-        }
-    });
-    let diffused: &'a [Local] = diffused;
+    let diffused: &'a [Local] = arena.try_alloc_from_fn_on(
+        if local { n } else { 0 },
+        |i| local_of(planes, points, nb, i),
+        &*progress,
+    )?;
     let view = Planes {
         planes,
         mean_weight: 0.0,
