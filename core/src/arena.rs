@@ -679,6 +679,17 @@ pub fn atomic_u32s(values: &mut [u32]) -> &mut [core::sync::atomic::AtomicU32] {
     unsafe { &mut *(values as *mut [u32] as *mut [core::sync::atomic::AtomicU32]) }
 }
 
+/// Rows of `W` `u32`s as rows of atomic `u32`s (see [`atomic_bytes`]): one
+/// bounds check reaches a whole row.
+pub fn atomic_u32_rows<const W: usize>(
+    values: &mut [[u32; W]],
+) -> &[[core::sync::atomic::AtomicU32; W]] {
+    // SAFETY: `AtomicU32` has the size, alignment and bit validity of `u32`,
+    // so `[AtomicU32; W]` has those of `[u32; W]`; the exclusive borrow of
+    // `values` for the result's lifetime rules out non-atomic access.
+    unsafe { &*(values as *mut [[u32; W]] as *const [[core::sync::atomic::AtomicU32; W]]) }
+}
+
 /// `values` as atomic `u32`s holding their bits (see [`atomic_bytes`]): each
 /// set whole with `f32::to_bits` by one task, read as `f32`s again once the
 /// view is dropped.

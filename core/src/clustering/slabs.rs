@@ -50,7 +50,7 @@
 //! point the repair grows again (about 2 % of the points on the bunny).
 
 use super::partition::{guessed, key, Ctx, Heap, FINAL, GUESSES, NONE};
-use crate::arena::{atomic_bytes, atomic_u32s, Scratch};
+use crate::arena::{atomic_bytes, atomic_u32_rows, Scratch};
 use crate::math::V3;
 use crate::parallel;
 use crate::parallel::Task;
@@ -93,28 +93,27 @@ fn slabs_bytes(n: usize) -> usize {
 /// Every point's slot: [`WORDS`] atomic words, so the slabs grow at once
 /// over one array, each reading and writing only its own points' slots
 /// (relaxed loads and stores: plain moves on the targets we build for).
-struct Slots<'s>(&'s [AtomicU32]);
+struct Slots<'s>(&'s [[AtomicU32; WORDS]]);
 
 impl Slots<'_> {
     /// Point `p`'s words (`None` past the end): one bounds check for all of
     /// them, where the growth's inner loop reads and sets several.
     #[inline]
     fn slot(&self, p: usize) -> Option<&[AtomicU32; WORDS]> {
-        let start = p.checked_mul(WORDS)?;
-        self.0
-            .get(start..start.checked_add(WORDS)?)?
-            .try_into()
-            .ok()
+        self.0.get(p)
     }
 
     #[inline]
     fn get(&self, p: usize, w: usize, or: u32) -> u32 {
-        self.0.get(WORDS * p + w).map_or(or, |a| a.load(Relaxed))
+        self.0
+            .get(p)
+            .and_then(|s| s.get(w))
+            .map_or(or, |a| a.load(Relaxed))
     }
 
     #[inline]
     fn set(&self, p: usize, w: usize, v: u32) {
-        if let Some(a) = self.0.get(WORDS * p + w) {
+        if let Some(a) = self.0.get(p).and_then(|s| s.get(w)) {
             a.store(v, Relaxed);
         }
     }
@@ -259,7 +258,7 @@ impl Task for Slab<'_, '_, '_, '_> {
                 let nb = shared.ctx.nb;
                 crate::hint::prefetch(nb.knn.as_ptr().wrapping_add(next * nb.k));
                 crate::hint::prefetch(nb.rev_start.as_ptr().wrapping_add(next));
-                crate::hint::prefetch(slots.0.as_ptr().wrapping_add(WORDS * next));
+                crate::hint::prefetch(slots.0.as_ptr().wrapping_add(next));
             }
             w[LABEL].store(label | FINAL, Relaxed);
             let from = w[FROM].load(Relaxed) as usize;
@@ -293,7 +292,7 @@ fn offer_within(shared: &Shared, heap: &mut Heap, part: &[u8], slab: u8, q: usiz
                 crate::hint::prefetch(ctx.nb.knn.as_ptr().wrapping_add(nbr * ctx.nb.k));
                 crate::hint::prefetch(guess.as_ptr().wrapping_add(nbr * GUESSES));
             }
-            crate::hint::prefetch(slots.0.as_ptr().wrapping_add(WORDS * nbr));
+            crate::hint::prefetch(slots.0.as_ptr().wrapping_add(nbr));
             ctx.planes.prefetch(nbr);
             crate::hint::prefetch(ctx.points.as_ptr().wrapping_add(nbr));
         }
@@ -673,7 +672,7 @@ pub(crate) fn grow_in_slabs(
     let levels = s.try_alloc_slice_on::<u64>(n, 0, hooks).ok()?;
     let points = s.try_alloc_slice_on::<u32>(n, 0, hooks).ok()?;
     let list = s.try_alloc_slice_on::<u32>(n, 0, hooks).ok()?;
-    let slots = Slots(atomic_u32s(words.as_flattened_mut()));
+    let slots = Slots(atomic_u32_rows(words));
     let marks = atomic_bytes(marks);
     let (axis, bounds) = bounds;
     let bounds = &bounds[..slabs - 1];
