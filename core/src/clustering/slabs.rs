@@ -23,14 +23,18 @@
 //! across the longest axis of the seeds' box, at quantiles of the points. Each
 //! slab grows from its own seeds over its own points on its own thread,
 //! recording each point's level and the point whose offer it holds. Then a
-//! repair on the calling thread makes the union what growing as one gives:
+//! repair makes the union what growing as one gives (its first step in
+//! each slab at once, in tasks; the growth of step 2 on the calling
+//! thread):
 //!
 //! 1. Points that a neighbour across a cut offers a lesser triple than the
 //!    one they hold, and points no seed of their slab reached, are *reset*,
 //!    with every point whose chain of offers runs through a reset point (its
-//!    descendants: their levels are all higher).
-//! 2. Each reset point takes the least offer of its final neighbours, and the
-//!    reset points grow in the order of their levels, as one growth, each
+//!    descendants: their levels are all higher; all in the slab of the
+//!    point reset, a slab's growth offering only to its own points). Every
+//!    slab resets its own, then every slab's reset points take the least
+//!    offer of their final neighbours (which no slab changes meanwhile).
+//! 2. The reset points grow in the order of their levels, as one growth, each
 //!    offering to every neighbour when final. A final point that is offered a
 //!    lesser triple than its own is reset there, with its descendants (their
 //!    levels are above the one being popped, so nothing final hangs on them),
@@ -393,6 +397,67 @@ impl Task for Check<'_, '_, '_> {
     }
 }
 
+/// The first step of the repair in one slab, a task of its own: its
+/// [`DIRTY`] points cleared with their descendants ([`Repair::clear_tree`]),
+/// every cleared point marked. The slabs' steps touch only their own
+/// points' slots (a descendant is in its root's slab); what they read of
+/// another slab's points (their offering point, never one of this slab)
+/// does not depend on the other's progress.
+struct ResetSlab<'a, 'p, 'x, 's> {
+    repair: Repair<'a, 'p, 'x, 's>,
+    part: &'a [u8],
+    marks: &'a [AtomicU8],
+    slab: u8,
+    fine: bool,
+}
+
+impl Task for ResetSlab<'_, '_, '_, '_> {
+    fn run(&mut self) {
+        let slots = self.repair.shared.slots;
+        for (p, &h) in self.part.iter().enumerate() {
+            if h != self.slab || self.marks.get(p).is_none_or(|m| m.load(Relaxed) == 0) {
+                continue;
+            }
+            if slots.label(p) & FINAL != 0
+                && slots.get(p, TRIED, NONE) == DIRTY
+                && !self.repair.clear_tree(p, self.marks)
+            {
+                self.fine = false;
+                return;
+            }
+        }
+    }
+}
+
+/// The second step of the repair in one slab, a task of its own, once every
+/// slab's first step is done: each of its marked open points (reset, or
+/// reached by no seed of the slab) takes the least offer of its final
+/// neighbours into the slab's part of the heap ([`Repair::gather`]). The
+/// final points, of every slab, stay as they are meanwhile: a gather reads
+/// only those (and writes its own point, which is open).
+struct GatherSlab<'a, 'p, 'x, 's> {
+    repair: Repair<'a, 'p, 'x, 's>,
+    part: &'a [u8],
+    marks: &'a [AtomicU8],
+    slab: u8,
+    fine: bool,
+}
+
+impl Task for GatherSlab<'_, '_, '_, '_> {
+    fn run(&mut self) {
+        let slots = self.repair.shared.slots;
+        for (p, &h) in self.part.iter().enumerate() {
+            if h != self.slab || self.marks.get(p).is_none_or(|m| m.load(Relaxed) == 0) {
+                continue;
+            }
+            if slots.label(p) & FINAL == 0 && !self.repair.gather(p) {
+                self.fine = false;
+                return;
+            }
+        }
+    }
+}
+
 /// The repair on the calling thread (see the module docs): a heap of
 /// `(level, point)` pairs and the list of reset points.
 struct Repair<'a, 'p, 'x, 's> {
@@ -535,6 +600,56 @@ impl Repair<'_, '_, '_, '_> {
                 self.push(at, z as u32)
             }
             None => true,
+        }
+    }
+
+    /// Clear final point `root` and its descendants (the points whose chain
+    /// of offers runs through it, all in its slab: a slab's growth offers
+    /// only to its own points), marking each in `marks`, without gathering
+    /// (the first step of the slabs' repair, [`ResetSlab`]). `false` when
+    /// the list is full.
+    fn clear_tree(&mut self, root: usize, marks: &[AtomicU8]) -> bool {
+        let slots = self.shared.slots;
+        let nb = self.shared.ctx.nb;
+        let mark = |q: usize| {
+            if let Some(m) = marks.get(q) {
+                m.store(1, Relaxed);
+            }
+        };
+        let start = self.listed;
+        let Some(slot) = self.list.get_mut(self.listed) else {
+            return false;
+        };
+        *slot = root as u32;
+        self.listed += 1;
+        slots.clear(root);
+        mark(root);
+        let mut i = start;
+        while i < self.listed {
+            let x = self.list[i];
+            i += 1;
+            for row in nb.rows(x as usize) {
+                for &c in row {
+                    let c_ = c as usize;
+                    if slots.label(c_) & FINAL != 0 && slots.from(c_) == x && slots.level(c_) != 0 {
+                        let Some(slot) = self.list.get_mut(self.listed) else {
+                            return false;
+                        };
+                        *slot = c;
+                        self.listed += 1;
+                        slots.clear(c_);
+                        mark(c_);
+                    }
+                }
+            }
+        }
+        true
+    }
+
+    /// Restore the heap order of the first `len` entries.
+    fn heapify(&mut self) {
+        for i in (0..self.len / 2 + 1).rev() {
+            self.sift_down(i);
         }
     }
 
@@ -726,30 +841,87 @@ pub(crate) fn grow_in_slabs(
         let mut tasks = jobs.each_mut().map(|j| j as &mut dyn Task);
         hooks.run(&mut tasks[..slabs]);
     }
+    // The repair's first two steps in each slab at once (its resets, then
+    // its gathers: each in the slab's own part of the list and the heap, one
+    // slot a point of the slab), then the growth of the open points as one,
+    // from the slabs' heaps put together. The open points and the offers
+    // they hold are those of resetting and gathering one point after
+    // another: each reset only removes final points, and each open point
+    // holds the least offer of the final points that are left.
+    let mut lens = [0usize; MAX_SLABS];
+    {
+        let (mut rest_l, mut rest_p, mut rest_q) =
+            (&mut levels[..], &mut points[..], &mut list[..]);
+        let mut repairs: [Option<Repair>; MAX_SLABS] = core::array::from_fn(|i| {
+            // (Each length read before its slice is taken out.)
+            let c = if i < slabs { count[i] } else { 0 };
+            let c = c.min(rest_l.len()).min(rest_p.len()).min(rest_q.len());
+            let (l, tail_l) = core::mem::take(&mut rest_l).split_at_mut(c);
+            let (q, tail_p) = core::mem::take(&mut rest_p).split_at_mut(c);
+            let (z, tail_q) = core::mem::take(&mut rest_q).split_at_mut(c);
+            (rest_l, rest_p, rest_q) = (tail_l, tail_p, tail_q);
+            Some(Repair {
+                shared: &shared,
+                levels: l,
+                points: q,
+                len: 0,
+                list: z,
+                listed: 0,
+            })
+        });
+        let mut resets: [ResetSlab; MAX_SLABS] = core::array::from_fn(|i| ResetSlab {
+            repair: repairs[i].take().unwrap_or(Repair {
+                shared: &shared,
+                levels: &mut [],
+                points: &mut [],
+                len: 0,
+                list: &mut [],
+                listed: 0,
+            }),
+            part,
+            marks,
+            slab: i as u8,
+            fine: true,
+        });
+        let mut tasks = resets.each_mut().map(|j| j as &mut dyn Task);
+        hooks.run(&mut tasks[..slabs]);
+        if resets.iter().any(|r| !r.fine) {
+            return None;
+        }
+        let mut gathers = resets.map(|r| GatherSlab {
+            repair: r.repair,
+            part,
+            marks,
+            slab: r.slab,
+            fine: true,
+        });
+        let mut tasks = gathers.each_mut().map(|j| j as &mut dyn Task);
+        hooks.run(&mut tasks[..slabs]);
+        for (len, g) in lens.iter_mut().zip(&gathers) {
+            if !g.fine {
+                return None;
+            }
+            *len = g.repair.len;
+        }
+    }
+    // The slabs' heaps side by side at the front, made one heap.
+    let mut total = 0;
+    let mut from = 0;
+    for (&len, &c) in lens.iter().zip(&count).take(slabs) {
+        levels.copy_within(from..from + len, total);
+        points.copy_within(from..from + len, total);
+        total += len;
+        from += c;
+    }
     let mut repair = Repair {
         shared: &shared,
         levels,
         points,
-        len: 0,
+        len: total,
         list,
         listed: 0,
     };
-    for (p, m) in marks.iter().enumerate() {
-        if m.load(Relaxed) == 0 {
-            continue;
-        }
-        let label = slots.label(p);
-        let fine = if label & FINAL == 0 {
-            repair.gather(p)
-        } else if slots.get(p, TRIED, NONE) == DIRTY {
-            repair.reset(p)
-        } else {
-            true
-        };
-        if !fine {
-            return None;
-        }
-    }
+    repair.heapify();
     if !repair.run() {
         return None;
     }
@@ -913,7 +1085,8 @@ mod tests {
                         })
                         .unwrap();
                     let at = format!("cloud {c}, {start:?}, {threads} slabs");
-                    assert_eq!(hooks.full_rounds.get(), 2, "{at}: the slabs did not run");
+                    // The slabs' growths, checks, resets and gathers.
+                    assert_eq!(hooks.full_rounds.get(), 4, "{at}: the slabs did not run");
                     let differ = one.iter().zip(&two).filter(|(a, b)| a != b).count();
                     assert_eq!(differ, 0, "{at}: labels differ");
                     assert_eq!(e1.to_bits(), e2.to_bits(), "{at}: energy");
