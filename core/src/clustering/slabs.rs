@@ -47,7 +47,8 @@
 //!
 //! Memory (scratch): 6 words a point (label, cost, last rival, offering
 //! point, level), a byte a point for its slab and one for the repair's
-//! marks, the heaps' 8 + 4 bytes and the reset list's 4 a point, a word a
+//! flags, the heaps' 8 + 4 bytes and the list's 4 a point (each slab's cut
+//! points, then its marked and reset points), a word a
 //! point sampled for the cuts (at most [`CUT_SAMPLE`]). When the scratch has
 //! no room, or the caller runs one thread ([`Progress::threads`]), region
 //! growing runs as one. Cost: the slabs' growths at once, then O(k) per
@@ -221,6 +222,12 @@ struct Slab<'a, 'p, 'x, 'h> {
     part: &'a [u8],
     slab: u8,
     room: &'h mut [u64],
+    /// Its points marked [`CUT`], in the order they were (room for every
+    /// point of the slab), and how many.
+    cuts: &'h mut [u32],
+    cut: usize,
+    /// Its points made final.
+    finals: usize,
 }
 
 impl Task for Slab<'_, '_, '_, '_> {
@@ -238,14 +245,23 @@ impl Task for Slab<'_, '_, '_, '_> {
             keys: &mut *self.room,
             len: 0,
         };
+        let (mut cut, mut finals) = (0, 0);
+        let cuts = &mut *self.cuts;
+        let mut note = |q: usize| {
+            if let Some(c) = cuts.get_mut(cut) {
+                *c = q as u32;
+                cut += 1;
+            }
+        };
         for (j, &sd) in seeds.iter().enumerate() {
             if mine(sd as usize) {
                 slots.hold(sd as usize, j as u32 | FINAL, 0.0, NONE, 0);
+                finals += 1;
             }
         }
         for &sd in seeds {
-            if mine(sd as usize) {
-                offer_within(shared, &mut heap, part, slab, sd as usize);
+            if mine(sd as usize) && offer_within(shared, &mut heap, part, slab, sd as usize) {
+                note(sd as usize);
             }
         }
         while let Some(top) = heap.pop() {
@@ -265,17 +281,21 @@ impl Task for Slab<'_, '_, '_, '_> {
                 crate::hint::prefetch(slots.0.as_ptr().wrapping_add(next));
             }
             w[LABEL].store(label | FINAL, Relaxed);
+            finals += 1;
             let from = w[FROM].load(Relaxed) as usize;
             slots.set_level(q, (top + 1).max(slots.level(from)));
-            offer_within(shared, &mut heap, part, slab, q);
+            if offer_within(shared, &mut heap, part, slab, q) {
+                note(q);
+            }
         }
+        (self.cut, self.finals) = (cut, finals);
     }
 }
 
 /// Offer the cluster of final point `q` to its unfinished neighbours in
 /// `slab`, as region growing does; mark `q` [`CUT`] when a neighbour is in
-/// another slab.
-fn offer_within(shared: &Shared, heap: &mut Heap, part: &[u8], slab: u8, q: usize) {
+/// another slab, and say whether it did.
+fn offer_within(shared: &Shared, heap: &mut Heap, part: &[u8], slab: u8, q: usize) -> bool {
     let Shared {
         ctx,
         generators,
@@ -284,7 +304,7 @@ fn offer_within(shared: &Shared, heap: &mut Heap, part: &[u8], slab: u8, q: usiz
     } = *shared;
     let label = slots.label(q) & !FINAL;
     let Some(&c) = generators.get(label as usize) else {
-        return;
+        return false;
     };
     let rows = ctx.nb.rows(q);
     for row in rows {
@@ -338,41 +358,34 @@ fn offer_within(shared: &Shared, heap: &mut Heap, part: &[u8], slab: u8, q: usiz
     if cut {
         slots.set(q, TRIED, CUT);
     }
+    cut
 }
 
 /// One slab's check across the cuts, a task of its own: mark [`DIRTY`] its
 /// final points to which a final neighbour in another slab offers a lesser
-/// triple than the one they hold, and in `marks` those and its points no
-/// seed reached.
-struct Check<'a, 'p, 'x> {
+/// triple than the one they hold, and list those and its points no seed
+/// reached. Only the slab's [`CUT`] points (`list[..cut]`, as its growth
+/// noted them) are looked at, and its other points only when some were
+/// left open (`open`). The marked points are written over the front of
+/// `list` (`marked` of them, each once), in the order looked at.
+struct Check<'a, 'p, 'x, 'h> {
     shared: &'a Shared<'a, 'p, 'x>,
     part: &'a [u8],
-    marks: &'a [AtomicU8],
     slab: u8,
+    list: &'h mut [u32],
+    cut: usize,
+    open: bool,
+    marked: usize,
 }
 
-impl Task for Check<'_, '_, '_> {
+impl Task for Check<'_, '_, '_, '_> {
     fn run(&mut self) {
-        let Check {
-            shared,
-            part,
-            marks,
-            slab,
-        } = *self;
+        let (shared, part, slab) = (self.shared, self.part, self.slab);
         let slots = shared.slots;
-        let mark = |q: usize| {
-            if let Some(m) = marks.get(q) {
-                m.store(1, Relaxed);
-            }
-        };
-        for (q, &h) in part.iter().enumerate() {
-            if h != slab {
-                continue;
-            }
-            if slots.label(q) & FINAL == 0 {
-                mark(q);
-                continue;
-            }
+        let list = &mut *self.list;
+        let mut marked = 0;
+        for i in 0..self.cut.min(list.len()) {
+            let q = list[i] as usize;
             if slots.get(q, TRIED, NONE) != CUT || slots.level(q) == 0 {
                 continue;
             }
@@ -388,39 +401,51 @@ impl Task for Check<'_, '_, '_> {
                     }
                     if shared.offer(r, q).0 < held {
                         slots.set(q, TRIED, DIRTY);
-                        mark(q);
+                        // `marked <= i`: written over an entry already read.
+                        list[marked] = q as u32;
+                        marked += 1;
                         break 'rows;
                     }
                 }
             }
         }
+        if self.open {
+            for (q, &h) in part.iter().enumerate() {
+                if h == slab && slots.label(q) & FINAL == 0 {
+                    // Open points are not final, so none was listed as cut:
+                    // with them the list holds at most the slab's points.
+                    if let Some(slot) = list.get_mut(marked) {
+                        *slot = q as u32;
+                        marked += 1;
+                    }
+                }
+            }
+        }
+        self.marked = marked;
     }
 }
 
 /// The first step of the repair in one slab, a task of its own: its
-/// [`DIRTY`] points cleared with their descendants ([`Repair::clear_tree`]),
-/// every cleared point marked. The slabs' steps touch only their own
-/// points' slots (a descendant is in its root's slab); what they read of
-/// another slab's points (their offering point, never one of this slab)
-/// does not depend on the other's progress.
+/// [`DIRTY`] points (among the marked ones its [`Check`] listed at the
+/// front of the repair's list) cleared with their descendants
+/// ([`Repair::clear_tree`]), which go on the list. The slabs' steps touch
+/// only their own points' slots (a descendant is in its root's slab); what
+/// they read of another slab's points (their offering point, never one of
+/// this slab) does not depend on the other's progress.
 struct ResetSlab<'a, 'p, 'x, 's> {
     repair: Repair<'a, 'p, 'x, 's>,
-    part: &'a [u8],
-    marks: &'a [AtomicU8],
-    slab: u8,
     fine: bool,
 }
 
 impl Task for ResetSlab<'_, '_, '_, '_> {
     fn run(&mut self) {
         let slots = self.repair.shared.slots;
-        for (p, &h) in self.part.iter().enumerate() {
-            if h != self.slab || self.marks.get(p).is_none_or(|m| m.load(Relaxed) == 0) {
-                continue;
-            }
+        let marked = self.repair.listed;
+        for i in 0..marked {
+            let p = self.repair.list[i] as usize;
             if slots.label(p) & FINAL != 0
                 && slots.get(p, TRIED, NONE) == DIRTY
-                && !self.repair.clear_tree(p, self.marks)
+                && !self.repair.clear_tree(p)
             {
                 self.fine = false;
                 return;
@@ -430,27 +455,32 @@ impl Task for ResetSlab<'_, '_, '_, '_> {
 }
 
 /// The second step of the repair in one slab, a task of its own, once every
-/// slab's first step is done: each of its marked open points (reset, or
+/// slab's first step is done: each open point of its list (reset, or
 /// reached by no seed of the slab) takes the least offer of its final
-/// neighbours into the slab's part of the heap ([`Repair::gather`]). The
-/// final points, of every slab, stay as they are meanwhile: a gather reads
-/// only those (and writes its own point, which is open).
+/// neighbours into the slab's part of the heap ([`Repair::gather`]), once
+/// (a point listed twice, marked and then reset as another's descendant,
+/// is flagged in `gathered`). The final points, of every slab, stay as they
+/// are meanwhile: a gather reads only those (and writes its own point,
+/// which is open).
 struct GatherSlab<'a, 'p, 'x, 's> {
     repair: Repair<'a, 'p, 'x, 's>,
-    part: &'a [u8],
-    marks: &'a [AtomicU8],
-    slab: u8,
+    gathered: &'a [AtomicU8],
     fine: bool,
 }
 
 impl Task for GatherSlab<'_, '_, '_, '_> {
     fn run(&mut self) {
         let slots = self.repair.shared.slots;
-        for (p, &h) in self.part.iter().enumerate() {
-            if h != self.slab || self.marks.get(p).is_none_or(|m| m.load(Relaxed) == 0) {
+        for i in 0..self.repair.listed {
+            let p = self.repair.list[i] as usize;
+            let Some(g) = self.gathered.get(p) else {
+                continue;
+            };
+            if g.load(Relaxed) != 0 || slots.label(p) & FINAL != 0 {
                 continue;
             }
-            if slots.label(p) & FINAL == 0 && !self.repair.gather(p) {
+            g.store(1, Relaxed);
+            if !self.repair.gather(p) {
                 self.fine = false;
                 return;
             }
@@ -603,31 +633,17 @@ impl Repair<'_, '_, '_, '_> {
         }
     }
 
-    /// Clear final point `root` and its descendants (the points whose chain
-    /// of offers runs through it, all in its slab: a slab's growth offers
-    /// only to its own points), marking each in `marks`, without gathering
-    /// (the first step of the slabs' repair, [`ResetSlab`]). `false` when
-    /// the list is full.
-    fn clear_tree(&mut self, root: usize, marks: &[AtomicU8]) -> bool {
+    /// Clear final point `root` (listed already) and its descendants (the
+    /// points whose chain of offers runs through it, all in its slab: a
+    /// slab's growth offers only to its own points), listing the
+    /// descendants, without gathering (the first step of the slabs' repair,
+    /// [`ResetSlab`]). `false` when the list is full.
+    fn clear_tree(&mut self, root: usize) -> bool {
         let slots = self.shared.slots;
         let nb = self.shared.ctx.nb;
-        let mark = |q: usize| {
-            if let Some(m) = marks.get(q) {
-                m.store(1, Relaxed);
-            }
-        };
-        let start = self.listed;
-        let Some(slot) = self.list.get_mut(self.listed) else {
-            return false;
-        };
-        *slot = root as u32;
-        self.listed += 1;
         slots.clear(root);
-        mark(root);
-        let mut i = start;
-        while i < self.listed {
-            let x = self.list[i];
-            i += 1;
+        let (mut x, mut i) = (root as u32, self.listed);
+        loop {
             for row in nb.rows(x as usize) {
                 for &c in row {
                     let c_ = c as usize;
@@ -638,12 +654,14 @@ impl Repair<'_, '_, '_, '_> {
                         *slot = c;
                         self.listed += 1;
                         slots.clear(c_);
-                        mark(c_);
                     }
                 }
             }
+            let Some(&next) = self.list[..self.listed].get(i) else {
+                return true;
+            };
+            (x, i) = (next, i + 1);
         }
-        true
     }
 
     /// Restore the heap order of the first `len` entries.
@@ -783,12 +801,12 @@ pub(crate) fn grow_in_slabs(
     // Filled on every thread: 6 MB at a million points.
     let words = s.try_alloc_slice_on::<[u32; WORDS]>(n, open, hooks).ok()?;
     let part = s.try_alloc_slice_on::<u8>(n, 0, hooks).ok()?;
-    let marks = s.try_alloc_slice_on::<u8>(n, 0, hooks).ok()?;
+    let gathered = s.try_alloc_slice_on::<u8>(n, 0, hooks).ok()?;
     let levels = s.try_alloc_slice_on::<u64>(n, 0, hooks).ok()?;
     let points = s.try_alloc_slice_on::<u32>(n, 0, hooks).ok()?;
     let list = s.try_alloc_slice_on::<u32>(n, 0, hooks).ok()?;
     let slots = Slots(atomic_u32_rows(words));
-    let marks = atomic_bytes(marks);
+    let gathered = atomic_bytes(gathered);
     let (axis, bounds) = bounds;
     let bounds = &bounds[..slabs - 1];
     let counts = parallel::rows(hooks, part, 1, |points, part: &mut [u8]| {
@@ -814,74 +832,85 @@ pub(crate) fn grow_in_slabs(
         guess,
         slots: &slots,
     };
+    // Each slab's part of the room (its heap, then its part of the
+    // repair's heap) and of the list (its cut points, then the repair's
+    // list): one slot a point of the slab.
+    let (mut cut, mut finals, mut marked) = (
+        [0usize; MAX_SLABS],
+        [0usize; MAX_SLABS],
+        [0usize; MAX_SLABS],
+    );
     {
-        // Each slab's heap in its own part of the room, one slot a point.
-        let mut rest = &mut levels[..];
-        let mut jobs: [Slab; MAX_SLABS] = core::array::from_fn(|i| {
-            let (room, tail) = core::mem::take(&mut rest).split_at_mut(count[i]);
-            rest = tail;
-            Slab {
+        let mut cuts = split_by(list, &count).into_iter();
+        let mut i = 0;
+        let mut jobs: [Slab; MAX_SLABS] = split_by(levels, &count).map(|room| {
+            let job = Slab {
                 shared: &shared,
                 seeds,
                 part,
                 slab: i as u8,
                 room,
-            }
+                cuts: cuts.next().unwrap_or_default(),
+                cut: 0,
+                finals: 0,
+            };
+            i += 1;
+            job
         });
         let mut tasks = jobs.each_mut().map(|j| j as &mut dyn Task);
         hooks.run(&mut tasks[..slabs]);
+        for (i, j) in jobs.iter().enumerate() {
+            (cut[i], finals[i]) = (j.cut, j.finals);
+        }
     }
     {
-        let mut jobs: [Check; MAX_SLABS] = core::array::from_fn(|i| Check {
-            shared: &shared,
-            part,
-            marks,
-            slab: i as u8,
+        let lists = split_by(list, &count);
+        let mut i = 0;
+        let mut jobs: [Check; MAX_SLABS] = lists.map(|list| {
+            let job = Check {
+                shared: &shared,
+                part,
+                slab: i as u8,
+                list,
+                cut: cut[i],
+                open: finals[i] < count[i],
+                marked: 0,
+            };
+            i += 1;
+            job
         });
         let mut tasks = jobs.each_mut().map(|j| j as &mut dyn Task);
         hooks.run(&mut tasks[..slabs]);
+        for (m, j) in marked.iter_mut().zip(&jobs) {
+            *m = j.marked;
+        }
     }
     // The repair's first two steps in each slab at once (its resets, then
-    // its gathers: each in the slab's own part of the list and the heap, one
-    // slot a point of the slab), then the growth of the open points as one,
-    // from the slabs' heaps put together. The open points and the offers
-    // they hold are those of resetting and gathering one point after
-    // another: each reset only removes final points, and each open point
-    // holds the least offer of the final points that are left.
+    // its gathers, in the slab's own part of the list and the heap), then
+    // the growth of the open points as one, from the slabs' heaps put
+    // together. The open points and the offers they hold are those of
+    // resetting and gathering one point after another: each reset only
+    // removes final points, and each open point holds the least offer of
+    // the final points that are left.
     let mut lens = [0usize; MAX_SLABS];
     {
-        let (mut rest_l, mut rest_p, mut rest_q) =
-            (&mut levels[..], &mut points[..], &mut list[..]);
-        let mut repairs: [Option<Repair>; MAX_SLABS] = core::array::from_fn(|i| {
-            // (Each length read before its slice is taken out.)
-            let c = if i < slabs { count[i] } else { 0 };
-            let c = c.min(rest_l.len()).min(rest_p.len()).min(rest_q.len());
-            let (l, tail_l) = core::mem::take(&mut rest_l).split_at_mut(c);
-            let (q, tail_p) = core::mem::take(&mut rest_p).split_at_mut(c);
-            let (z, tail_q) = core::mem::take(&mut rest_q).split_at_mut(c);
-            (rest_l, rest_p, rest_q) = (tail_l, tail_p, tail_q);
-            Some(Repair {
-                shared: &shared,
-                levels: l,
-                points: q,
-                len: 0,
-                list: z,
-                listed: 0,
-            })
-        });
-        let mut resets: [ResetSlab; MAX_SLABS] = core::array::from_fn(|i| ResetSlab {
-            repair: repairs[i].take().unwrap_or(Repair {
-                shared: &shared,
-                levels: &mut [],
-                points: &mut [],
-                len: 0,
-                list: &mut [],
-                listed: 0,
-            }),
-            part,
-            marks,
-            slab: i as u8,
-            fine: true,
+        let mut heaps = split_by(levels, &count)
+            .into_iter()
+            .zip(split_by(points, &count));
+        let mut lists = split_by(list, &count).into_iter();
+        let mut resets: [ResetSlab; MAX_SLABS] = core::array::from_fn(|i| {
+            let (l, q) = heaps.next().unwrap_or_default();
+            ResetSlab {
+                repair: Repair {
+                    shared: &shared,
+                    levels: l,
+                    points: q,
+                    len: 0,
+                    list: lists.next().unwrap_or_default(),
+                    listed: marked[i],
+                },
+                fine: true,
+            }
         });
         let mut tasks = resets.each_mut().map(|j| j as &mut dyn Task);
         hooks.run(&mut tasks[..slabs]);
@@ -890,9 +919,7 @@ pub(crate) fn grow_in_slabs(
         }
         let mut gathers = resets.map(|r| GatherSlab {
             repair: r.repair,
-            part,
-            marks,
-            slab: r.slab,
+            gathered,
             fine: true,
         });
         let mut tasks = gathers.each_mut().map(|j| j as &mut dyn Task);
@@ -934,6 +961,19 @@ pub(crate) fn grow_in_slabs(
         sum
     });
     Some(energy.iter().fold(0.0, |a, b| a + b))
+}
+
+/// `all` cut into [`MAX_SLABS`] consecutive parts of `count` entries (as
+/// many as there are, the last ones empty).
+fn split_by<'s, T>(all: &'s mut [T], count: &[usize; MAX_SLABS]) -> [&'s mut [T]; MAX_SLABS] {
+    let mut rest = all;
+    core::array::from_fn(|i| {
+        // (The length read before the slice is taken out.)
+        let c = count[i].min(rest.len());
+        let (part, tail) = core::mem::take(&mut rest).split_at_mut(c);
+        rest = tail;
+        part
+    })
 }
 
 /// The axis of the longest side of the seeds' box and the `slabs - 1`
@@ -1001,7 +1041,24 @@ mod tests {
         let lattice: Vec<u32> = (0..13)
             .flat_map(|y| (0..13).map(move |x| (y * 10 + 5) * 130 + x * 10 + 5))
             .collect();
-        let mut clouds = vec![(grid, lattice)];
+        // A grid with a slot cut from its right side: past the cut between
+        // the slabs the points are two arms, joined only through the left
+        // slab, and no seed lies in the lower arm, so the right slab's
+        // growth leaves it open and the repair reaches it.
+        let mut arms = Vec::new();
+        let mut arm_seeds = Vec::new();
+        for y in 0..100u32 {
+            for x in 0..200u32 {
+                if x >= 70 && (40..60).contains(&y) {
+                    continue;
+                }
+                if x % 8 == 4 && y % 8 == 4 && !(x >= 70 && y < 40) {
+                    arm_seeds.push(arms.len() as u32);
+                }
+                arms.push([x as f32, y as f32, 0.0]);
+            }
+        }
+        let mut clouds = vec![(grid, lattice), (arms, arm_seeds)];
         for (shape, seed) in [
             (Shape::Demo, 3),
             (Shape::Torus, 4),
