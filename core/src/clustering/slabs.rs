@@ -683,24 +683,8 @@ impl Repair<'_, '_, '_, '_> {
         };
         *slot = root as u32;
         self.listed += 1;
-        slots.clear(root);
-        let mut i = start;
-        while i < self.listed {
-            let x = self.list[i];
-            i += 1;
-            for row in nb.rows(x as usize) {
-                for &c in row {
-                    let c_ = c as usize;
-                    if slots.label(c_) & FINAL != 0 && slots.from(c_) == x && slots.level(c_) != 0 {
-                        let Some(slot) = self.list.get_mut(self.listed) else {
-                            return false;
-                        };
-                        *slot = c;
-                        self.listed += 1;
-                        slots.clear(c_);
-                    }
-                }
-            }
+        if !self.clear_tree(root) {
+            return false;
         }
         for i in start..self.listed {
             let z = self.list[i] as usize;
