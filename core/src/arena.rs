@@ -291,7 +291,16 @@ impl<'buf> Arena<'buf> {
         hooks: &dyn Progress,
     ) -> &mut [T] {
         if size_of::<T>() == 0 {
-            return self.fill_at(offset, count, f(0));
+            // No memory to write: the values are made one after another
+            // (`f` is called for each index, as it is for any type).
+            let mut last = None;
+            for i in 0..count {
+                last = Some(f(i));
+            }
+            return match last {
+                Some(v) => self.fill_at(offset, count, v),
+                None => &mut [],
+            };
         }
         // SAFETY: as in `fill_at`, the `count` slots at `offset` are free,
         // aligned for `T` and handed to no one else; as `MaybeUninit<T>` they
@@ -819,6 +828,18 @@ mod tests {
                 // Below the threshold, and in the persistent region.
                 let small = s.arena().try_alloc_slice_on::<u8>(5, 2, &hooks).unwrap();
                 assert_eq!(small, &[2; 5]);
+                // Zero-sized values: `f` is called for no index when there
+                // are none (it may index data of that length).
+                let none: [(); 0] = [];
+                let units = s
+                    .try_alloc_from_fn_on(0, |i| none[i], &hooks)
+                    .map(|u| u.len());
+                assert_eq!(units, Ok(0));
+                let three = [(); 3];
+                let units = s
+                    .try_alloc_from_fn_on(3, |i| three[i], &hooks)
+                    .map(|u| u.len());
+                assert_eq!(units, Ok(3));
             });
         }
     }
