@@ -223,9 +223,10 @@ struct Slab<'a, 'p, 'x, 'h> {
     slab: u8,
     room: &'h mut [u64],
     /// Its points marked [`CUT`], in the order they were (room for every
-    /// point of the slab), and how many.
+    /// point of the slab), and how many; `None` when they did not fit (a
+    /// seed given twice is offered from twice).
     cuts: &'h mut [u32],
-    cut: usize,
+    cut: Option<usize>,
     /// Its points made final.
     finals: usize,
 }
@@ -245,13 +246,13 @@ impl Task for Slab<'_, '_, '_, '_> {
             keys: &mut *self.room,
             len: 0,
         };
-        let (mut cut, mut finals) = (0, 0);
+        let (mut cut, mut finals) = (Some(0), 0);
         let cuts = &mut *self.cuts;
         let mut note = |q: usize| {
-            if let Some(c) = cuts.get_mut(cut) {
-                *c = q as u32;
-                cut += 1;
-            }
+            cut = cut.and_then(|n| {
+                *cuts.get_mut(n)? = q as u32;
+                Some(n + 1)
+            });
         };
         for (j, &sd) in seeds.iter().enumerate() {
             if mine(sd as usize) {
@@ -260,7 +261,12 @@ impl Task for Slab<'_, '_, '_, '_> {
             }
         }
         for &sd in seeds {
-            if mine(sd as usize) && offer_within(shared, &mut heap, part, slab, sd as usize) {
+            // A seed given twice offers twice; it is noted once.
+            let noted = slots.get(sd as usize, TRIED, NONE) == CUT;
+            if mine(sd as usize)
+                && offer_within(shared, &mut heap, part, slab, sd as usize)
+                && !noted
+            {
                 note(sd as usize);
             }
         }
@@ -365,15 +371,16 @@ fn offer_within(shared: &Shared, heap: &mut Heap, part: &[u8], slab: u8, q: usiz
 /// final points to which a final neighbour in another slab offers a lesser
 /// triple than the one they hold, and list those and its points no seed
 /// reached. Only the slab's [`CUT`] points (`list[..cut]`, as its growth
-/// noted them) are looked at, and its other points only when some were
-/// left open (`open`). The marked points are written over the front of
-/// `list` (`marked` of them, each once), in the order looked at.
+/// noted them) are looked at, every point of the slab when they did not
+/// fit (`cut` `None`), and its open ones only when some were left open
+/// (`open`). The marked points are written over the front of `list`
+/// (`marked` of them, each once), in the order looked at.
 struct Check<'a, 'p, 'x, 'h> {
     shared: &'a Shared<'a, 'p, 'x>,
     part: &'a [u8],
     slab: u8,
     list: &'h mut [u32],
-    cut: usize,
+    cut: Option<usize>,
     open: bool,
     marked: usize,
 }
@@ -382,15 +389,14 @@ impl Task for Check<'_, '_, '_, '_> {
     fn run(&mut self) {
         let (shared, part, slab) = (self.shared, self.part, self.slab);
         let slots = shared.slots;
-        let list = &mut *self.list;
-        let mut marked = 0;
-        for i in 0..self.cut.min(list.len()) {
-            let q = list[i] as usize;
+        // Whether a cut point of the slab is offered a lesser triple across
+        // the cut (and is marked [`DIRTY`] then).
+        let dirty = |q: usize| {
             if slots.get(q, TRIED, NONE) != CUT || slots.level(q) == 0 {
-                continue;
+                return false;
             }
             let held = slots.standing(q);
-            'rows: for row in shared.ctx.nb.rows(q) {
+            for row in shared.ctx.nb.rows(q) {
                 for &r in row {
                     let r = r as usize;
                     if part.get(r) == Some(&slab)
@@ -401,10 +407,32 @@ impl Task for Check<'_, '_, '_, '_> {
                     }
                     if shared.offer(r, q).0 < held {
                         slots.set(q, TRIED, DIRTY);
+                        return true;
+                    }
+                }
+            }
+            false
+        };
+        let list = &mut *self.list;
+        let mut marked = 0;
+        match self.cut {
+            Some(cut) => {
+                for i in 0..cut.min(list.len()) {
+                    let q = list[i] as usize;
+                    if dirty(q) {
                         // `marked <= i`: written over an entry already read.
                         list[marked] = q as u32;
                         marked += 1;
-                        break 'rows;
+                    }
+                }
+            }
+            None => {
+                for (q, &h) in part.iter().enumerate() {
+                    if h == slab && dirty(q) {
+                        if let Some(slot) = list.get_mut(marked) {
+                            *slot = q as u32;
+                            marked += 1;
+                        }
                     }
                 }
             }
@@ -412,7 +440,7 @@ impl Task for Check<'_, '_, '_, '_> {
         if self.open {
             for (q, &h) in part.iter().enumerate() {
                 if h == slab && slots.label(q) & FINAL == 0 {
-                    // Open points are not final, so none was listed as cut:
+                    // Open points are not final, so none was marked dirty:
                     // with them the list holds at most the slab's points.
                     if let Some(slot) = list.get_mut(marked) {
                         *slot = q as u32;
@@ -819,11 +847,8 @@ pub(crate) fn grow_in_slabs(
     // Each slab's part of the room (its heap, then its part of the
     // repair's heap) and of the list (its cut points, then the repair's
     // list): one slot a point of the slab.
-    let (mut cut, mut finals, mut marked) = (
-        [0usize; MAX_SLABS],
-        [0usize; MAX_SLABS],
-        [0usize; MAX_SLABS],
-    );
+    let (mut cut, mut finals, mut marked) =
+        ([None; MAX_SLABS], [0usize; MAX_SLABS], [0usize; MAX_SLABS]);
     {
         let mut cuts = split_by(list, &count).into_iter();
         let mut i = 0;
@@ -835,7 +860,7 @@ pub(crate) fn grow_in_slabs(
                 slab: i as u8,
                 room,
                 cuts: cuts.next().unwrap_or_default(),
-                cut: 0,
+                cut: Some(0),
                 finals: 0,
             };
             i += 1;
@@ -1042,7 +1067,11 @@ mod tests {
                 arms.push([x as f32, y as f32, 0.0]);
             }
         }
-        let mut clouds = vec![(grid, lattice), (arms, arm_seeds)];
+        // The grid again with one seed given twice (two clusters from one
+        // point: the growths offer from it twice).
+        let mut twice = lattice.clone();
+        twice.push(lattice[84]);
+        let mut clouds = vec![(grid.clone(), lattice), (arms, arm_seeds), (grid, twice)];
         for (shape, seed) in [
             (Shape::Demo, 3),
             (Shape::Torus, 4),
