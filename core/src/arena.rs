@@ -61,7 +61,7 @@ impl fmt::Display for Exhausted {
 /// Every allocation starts on, and takes, a multiple of this many bytes.
 pub const GRANULE: usize = 8;
 
-/// Fewest bytes an allocation of [`Scratch::try_alloc_slice_on`] fills on
+/// Fewest bytes an allocation of [`Alloc::try_alloc_slice_on`] fills on
 /// several threads (below it, handing out the tasks costs more than they
 /// save).
 pub const PARALLEL_FILL: usize = 64 * 1024;
@@ -332,41 +332,12 @@ impl<'buf> Arena<'buf> {
         unsafe { core::slice::from_raw_parts_mut(slots.as_mut_ptr().cast::<T>(), count) }
     }
 
-    /// [`Arena::fill_at`] with `value`, on the threads of `hooks` when it has
-    /// more than one and the slots take at least [`PARALLEL_FILL`] bytes.
-    #[allow(clippy::mut_from_ref)] // each offset is handed out once: see `fill_at`
-    fn fill_at_on<T: Copy + Send + Sync>(
-        &self,
-        offset: usize,
-        count: usize,
-        value: T,
-        hooks: &dyn Progress,
-    ) -> &mut [T] {
-        if hooks.threads() < 2 || count.saturating_mul(size_of::<T>()) < PARALLEL_FILL {
-            return self.fill_at(offset, count, value);
-        }
-        self.fill_at_with(offset, count, |_| value, hooks)
-    }
-
     /// Allocate `count` copies of `value`, persistent for the arena's life.
     /// Cost: O(count).
     #[allow(clippy::mut_from_ref)] // disjoint regions: see `fill_at`
     pub fn try_alloc_slice<T: Copy>(&self, count: usize, value: T) -> Result<&mut [T], Exhausted> {
         let offset = self.reserve_front::<T>(count)?;
         Ok(self.fill_at(offset, count, value))
-    }
-
-    /// [`Arena::try_alloc_slice`], filled by the threads of `hooks` when it
-    /// is large (at least [`PARALLEL_FILL`] bytes): the same slice, sooner.
-    #[allow(clippy::mut_from_ref)] // disjoint regions: see `fill_at`
-    pub fn try_alloc_slice_on<T: Copy + Send + Sync>(
-        &self,
-        count: usize,
-        value: T,
-        hooks: &dyn Progress,
-    ) -> Result<&mut [T], Exhausted> {
-        let offset = self.reserve_front::<T>(count)?;
-        Ok(self.fill_at_on(offset, count, value, hooks))
     }
 
     /// `count` values persistent for the arena's life, value `i` being
@@ -497,20 +468,6 @@ impl<'buf> Scratch<'_, 'buf> {
         Ok(self.arena.fill_at(offset, count, value))
     }
 
-    /// [`Scratch::try_alloc_slice`], filled by the threads of `hooks` when it
-    /// is large (at least [`PARALLEL_FILL`] bytes): the same slice, sooner.
-    #[allow(clippy::mut_from_ref)] // disjoint regions: see `Arena::fill_at`
-    pub fn try_alloc_slice_on<T: Copy + Send + Sync>(
-        &self,
-        count: usize,
-        value: T,
-        hooks: &dyn Progress,
-    ) -> Result<&mut [T], Exhausted> {
-        self.check_innermost(count)?;
-        let offset = self.arena.reserve_back::<T>(count)?;
-        Ok(self.arena.fill_at_on(offset, count, value, hooks))
-    }
-
     /// `count` values for the life of this scope, value `i` being `f(i)`,
     /// computed in the tasks of `hooks` (on whatever threads it has).
     #[allow(clippy::mut_from_ref)] // disjoint regions: see `Arena::fill_at`
@@ -578,7 +535,12 @@ pub trait Alloc<'buf> {
         count: usize,
         value: T,
         hooks: &dyn Progress,
-    ) -> Result<&mut [T], Exhausted>;
+    ) -> Result<&mut [T], Exhausted> {
+        if hooks.threads() < 2 || count.saturating_mul(size_of::<T>()) < PARALLEL_FILL {
+            return self.try_alloc_slice(count, value);
+        }
+        self.try_alloc_from_fn_on(count, |_| value, hooks)
+    }
 
     /// `count` values, value `i` being `f(i)`, computed in the tasks of
     /// `hooks` (on whatever threads it has): for values that cost more than a
@@ -598,69 +560,42 @@ pub trait Alloc<'buf> {
     fn base(&self) -> &Arena<'buf>;
 }
 
-impl<'buf> Alloc<'buf> for Arena<'buf> {
-    fn try_alloc_slice<T: Copy>(&self, count: usize, value: T) -> Result<&mut [T], Exhausted> {
-        Arena::try_alloc_slice(self, count, value)
-    }
+/// The [`Alloc`] methods of `$ty` as calls of its own (inherent) methods of
+/// the same names, and `base` as `$base`.
+macro_rules! forward_alloc {
+    ($ty:ty, |$this:ident| $base:expr) => {
+        impl<'buf> Alloc<'buf> for $ty {
+            fn try_alloc_slice<T: Copy>(
+                &self,
+                count: usize,
+                value: T,
+            ) -> Result<&mut [T], Exhausted> {
+                <$ty>::try_alloc_slice(self, count, value)
+            }
 
-    fn try_alloc_slice_on<T: Copy + Send + Sync>(
-        &self,
-        count: usize,
-        value: T,
-        hooks: &dyn Progress,
-    ) -> Result<&mut [T], Exhausted> {
-        Arena::try_alloc_slice_on(self, count, value, hooks)
-    }
+            fn try_alloc_from_fn_on<T: Copy + Send>(
+                &self,
+                count: usize,
+                f: impl Fn(usize) -> T + Sync,
+                hooks: &dyn Progress,
+            ) -> Result<&mut [T], Exhausted> {
+                <$ty>::try_alloc_from_fn_on(self, count, f, hooks)
+            }
 
-    fn try_alloc_from_fn_on<T: Copy + Send>(
-        &self,
-        count: usize,
-        f: impl Fn(usize) -> T + Sync,
-        hooks: &dyn Progress,
-    ) -> Result<&mut [T], Exhausted> {
-        Arena::try_alloc_from_fn_on(self, count, f, hooks)
-    }
+            fn scratch<R>(&self, f: impl FnOnce(&Scratch<'_, 'buf>) -> R) -> R {
+                <$ty>::scratch(self, f)
+            }
 
-    fn scratch<R>(&self, f: impl FnOnce(&Scratch<'_, 'buf>) -> R) -> R {
-        Arena::scratch(self, f)
-    }
-
-    fn base(&self) -> &Arena<'buf> {
-        self
-    }
+            fn base(&self) -> &Arena<'buf> {
+                let $this = self;
+                $base
+            }
+        }
+    };
 }
 
-impl<'buf> Alloc<'buf> for Scratch<'_, 'buf> {
-    fn try_alloc_slice<T: Copy>(&self, count: usize, value: T) -> Result<&mut [T], Exhausted> {
-        Scratch::try_alloc_slice(self, count, value)
-    }
-
-    fn try_alloc_slice_on<T: Copy + Send + Sync>(
-        &self,
-        count: usize,
-        value: T,
-        hooks: &dyn Progress,
-    ) -> Result<&mut [T], Exhausted> {
-        Scratch::try_alloc_slice_on(self, count, value, hooks)
-    }
-
-    fn try_alloc_from_fn_on<T: Copy + Send>(
-        &self,
-        count: usize,
-        f: impl Fn(usize) -> T + Sync,
-        hooks: &dyn Progress,
-    ) -> Result<&mut [T], Exhausted> {
-        Scratch::try_alloc_from_fn_on(self, count, f, hooks)
-    }
-
-    fn scratch<R>(&self, f: impl FnOnce(&Scratch<'_, 'buf>) -> R) -> R {
-        Scratch::scratch(self, f)
-    }
-
-    fn base(&self) -> &Arena<'buf> {
-        self.arena
-    }
-}
+forward_alloc!(Arena<'buf>, |this| this);
+forward_alloc!(Scratch<'_, 'buf>, |this| this.arena);
 
 /// `bytes` as atomic bytes: flags that parallel tasks set on each other's
 /// items (relaxed stores of one value, so the result does not depend on their

@@ -28,7 +28,7 @@
 //! 32 B per point (guessed costs 16, heap 8, tentative cost and rival 8).
 //! Cost per pass: O(n k log n).
 
-use crate::arena::{padded_bytes, Arena, Scratch};
+use crate::arena::{padded_bytes, Alloc, Arena, Scratch};
 use crate::clustering::knn::Neighbours;
 use crate::clustering::quadric::{plane_eval, Planes, Quadric};
 use crate::clustering::slabs;

@@ -13,7 +13,7 @@
 //! `[c,1]ᵀ Q_v(i) [c,1] = Σ_j (√a_j u_j · [c,1])²`, 13 dot products at k = 12.
 //! Sums over clusters use the 10-coefficient [`Quadric`] in `f64`.
 
-use crate::arena::Arena;
+use crate::arena::{Alloc, Arena};
 use crate::clustering::knn::Neighbours;
 use crate::clustering::normals;
 use crate::error::Result;

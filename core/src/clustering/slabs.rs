@@ -55,7 +55,7 @@
 //! point the repair grows again (about 2 % of the points on the bunny).
 
 use super::partition::{guessed, key, Ctx, Heap, FINAL, GUESSES, NONE};
-use crate::arena::{atomic_bytes, atomic_u32_rows, Scratch};
+use crate::arena::{atomic_bytes, atomic_u32_rows, Alloc, Scratch};
 use crate::math::V3;
 use crate::parallel;
 use crate::parallel::Task;

@@ -426,7 +426,7 @@ pub(crate) fn mark_fixed<'b, A: Alloc<'b>>(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::arena::Arena;
     use crate::progress::Silent;
@@ -437,7 +437,7 @@ mod tests {
 
     /// A flat `n x n` grid of vertices with spacing 1 in the plane z = 0, two
     /// faces per square, counter-clockwise seen from +z.
-    fn grid(n: u32) -> (Vec<V3>, Vec<[u32; 3]>) {
+    pub(crate) fn grid(n: u32) -> (Vec<V3>, Vec<[u32; 3]>) {
         let v = (0..n * n)
             .map(|i| [(i % n) as f32, (i / n) as f32, 0.0])
             .collect();

@@ -414,17 +414,7 @@ fn untangled_says_the_same_on_one_thread_and_in_tasks() {
     // A 40 x 40 grid of squares in z = 0 (3,200 faces: scanned in tasks),
     // and triangles through it, above it, and on it sharing an edge.
     let side = 41u32;
-    let mut v: Vec<V3> = (0..side * side)
-        .map(|i| [(i % side) as f32, (i / side) as f32, 0.0])
-        .collect();
-    let mut faces = Vec::new();
-    for y in 0..side - 1 {
-        for x in 0..side - 1 {
-            let c = y * side + x;
-            faces.push([c, c + 1, c + side + 1]);
-            faces.push([c, c + side + 1, c + side]);
-        }
-    }
+    let (mut v, faces) = crate::meshing::fit::tests::grid(side);
     assert!(faces.len() >= repair::PARALLEL_SCAN);
     let base = v.len() as u32;
     let mut cases = Vec::new();
