@@ -208,50 +208,99 @@ impl Sym3 {
     /// `values[i]`), by cyclic Jacobi rotations. Converges quadratically; a fixed cap
     /// of sweeps keeps the cost bounded for any input, including NaN.
     pub fn eigen(&self) -> ([f64; 3], [D3; 3]) {
-        let mut a = self.full();
-        let mut v = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+        let [one] = Sym3::eigen_lanes(&[*self]);
+        one
+    }
+
+    /// [`Sym3::eigen`] of `L` matrices at once, each bit for bit what it gives
+    /// alone: each matrix takes the same rotations in the same order and stops
+    /// at the same sweep. A rotation is a chain of two divisions and two
+    /// square roots (about a hundred cycles of latency, a few of work), so
+    /// one matrix's rotations leave the processor idle; the matrices' are
+    /// independent, and taken in turn, plane by plane, they overlap.
+    #[inline(always)]
+    pub fn eigen_lanes<const L: usize>(ms: &[Sym3; L]) -> [([f64; 3], [D3; 3]); L] {
+        let mut a: [[D3; 3]; L] = core::array::from_fn(|l| ms[l].full());
+        let mut v = [[[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]; L];
+        let mut live = [true; L];
         for _sweep in 0..32 {
-            let off = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
-            let diag = a[0][0] * a[0][0] + a[1][1] * a[1][1] + a[2][2] * a[2][2];
-            if off <= 1e-30 * diag || off == 0.0 || off.is_nan() {
+            let mut any = false;
+            for (a, live) in a.iter().zip(live.iter_mut()) {
+                let off = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
+                let diag = a[0][0] * a[0][0] + a[1][1] * a[1][1] + a[2][2] * a[2][2];
+                if off <= 1e-30 * diag || off == 0.0 || off.is_nan() {
+                    *live = false;
+                }
+                any |= *live;
+            }
+            if !any {
                 break;
             }
             // The three planes in turn, each rotation's indices constants.
-            rotate::<0, 1>(&mut a, &mut v);
-            rotate::<0, 2>(&mut a, &mut v);
-            rotate::<1, 2>(&mut a, &mut v);
+            for ((a, v), &live) in a.iter_mut().zip(v.iter_mut()).zip(&live) {
+                if live {
+                    rotate::<0, 1>(a, v);
+                }
+            }
+            for ((a, v), &live) in a.iter_mut().zip(v.iter_mut()).zip(&live) {
+                if live {
+                    rotate::<0, 2>(a, v);
+                }
+            }
+            for ((a, v), &live) in a.iter_mut().zip(v.iter_mut()).zip(&live) {
+                if live {
+                    rotate::<1, 2>(a, v);
+                }
+            }
         }
-        let vals = [a[0][0], a[1][1], a[2][2]];
-        let col = |i: usize| [v[0][i], v[1][i], v[2][i]];
-        let mut idx = [0usize, 1, 2];
-        // Sort ascending; NaN (never produced from finite input) sorts last.
-        idx.sort_unstable_by(|&i, &j| vals[i].total_cmp(&vals[j]));
-        (
-            [vals[idx[0]], vals[idx[1]], vals[idx[2]]],
-            [col(idx[0]), col(idx[1]), col(idx[2])],
-        )
+        core::array::from_fn(|l| {
+            let (a, v) = (&a[l], &v[l]);
+            let vals = [a[0][0], a[1][1], a[2][2]];
+            let col = |i: usize| [v[0][i], v[1][i], v[2][i]];
+            let mut idx = [0usize, 1, 2];
+            // Sort ascending; NaN (never produced from finite input) sorts last.
+            idx.sort_unstable_by(|&i, &j| vals[i].total_cmp(&vals[j]));
+            (
+                [vals[idx[0]], vals[idx[1]], vals[idx[2]]],
+                [col(idx[0]), col(idx[1]), col(idx[2])],
+            )
+        })
     }
 
     /// Solve `self * x = b` through the eigen-decomposition, treating eigenvalues
     /// below `rel * max|eigenvalue|` as zero (least-norm solution in those directions).
     /// Returns the solution and the numerical rank.
     pub fn pseudo_solve(&self, b: D3, rel: f64) -> (D3, u32) {
-        let (vals, vecs) = self.eigen();
-        let max = vals.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        let mut x = [0.0; 3];
-        let mut rank = 0;
-        if max > 0.0 && max.is_finite() {
-            for i in 0..3 {
-                if vals[i].abs() > rel * max {
-                    rank += 1;
-                    let w = dot_d(vecs[i], b) / vals[i];
-                    for (xk, vk) in x.iter_mut().zip(vecs[i]) {
-                        *xk += w * vk;
+        let [one] = Sym3::pseudo_solve_lanes(&[(*self, b)], rel);
+        one
+    }
+
+    /// [`Sym3::pseudo_solve`] of `L` systems at once, each what it gives alone
+    /// (their eigen-solves overlap, [`Sym3::eigen_lanes`]).
+    #[inline(always)]
+    pub fn pseudo_solve_lanes<const L: usize>(
+        systems: &[(Sym3, D3); L],
+        rel: f64,
+    ) -> [(D3, u32); L] {
+        let solved = Sym3::eigen_lanes(&systems.map(|(m, _)| m));
+        core::array::from_fn(|l| {
+            let ((vals, vecs), b) = (solved[l], systems[l].1);
+            let max = vals.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            let mut x = [0.0; 3];
+            let mut rank = 0;
+            if max > 0.0 && max.is_finite() {
+                for i in 0..3 {
+                    if vals[i].abs() > rel * max {
+                        rank += 1;
+                        let w = dot_d(vecs[i], b) / vals[i];
+                        for (xk, vk) in x.iter_mut().zip(vecs[i]) {
+                            *xk += w * vk;
+                        }
                     }
                 }
             }
-        }
-        (x, rank)
+            (x, rank)
+        })
     }
 }
 
@@ -273,6 +322,68 @@ mod tests {
                     assert!((av[k] - vals[i] * vecs[i][k]).abs() < 1e-12, "{s:?}");
                 }
                 assert!((dot_d(vecs[i], vecs[i]) - 1.0).abs() < 1e-12);
+            }
+        }
+    }
+
+    #[test]
+    fn eigen_lanes_give_each_matrix_what_it_gives_alone() {
+        let mut rng = Rng::new(5);
+        let mut random =
+            |scale: f64| Sym3(core::array::from_fn(|_| (rng.unit_f64() - 0.5) * scale));
+        // Matrices that stop at different sweeps: diagonal ones at once, zero,
+        // NaN at the cap's first check, nearly diagonal ones after a sweep or
+        // two, random ones later; rank one and repeated eigenvalues.
+        let mut ms = std::vec![
+            Sym3([1.0, 0.0, 0.0, 2.0, 0.0, 3.0]),
+            Sym3::default(),
+            Sym3([f64::NAN, 1.0, 0.0, 1.0, 0.0, 1.0]),
+            Sym3([1.0, 1e-9, 0.0, 2.0, 1e-12, 3.0]),
+            Sym3([1.0, 1.0, 1.0, 1.0, 1.0, 1.0]),
+            Sym3([2.0, 0.0, 0.0, 2.0, 0.0, 5.0]),
+            Sym3([1e300, 1e-300, 3.0, 1e-10, 0.0, -1e300]),
+        ];
+        for _ in 0..400 {
+            ms.push(random(2.0));
+            ms.push(random(1e-6));
+        }
+        let bits = |(vals, vecs): ([f64; 3], [D3; 3])| {
+            let mut b = std::vec::Vec::new();
+            b.extend(vals.map(f64::to_bits));
+            b.extend(vecs.iter().flatten().map(|x| x.to_bits()));
+            b
+        };
+        // Alone: the sweeps of one matrix, as `eigen` took them before it
+        // took lanes.
+        let one = |m: &Sym3| {
+            let mut a = m.full();
+            let mut v = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+            for _sweep in 0..32 {
+                let off = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
+                let diag = a[0][0] * a[0][0] + a[1][1] * a[1][1] + a[2][2] * a[2][2];
+                if off <= 1e-30 * diag || off == 0.0 || off.is_nan() {
+                    break;
+                }
+                rotate::<0, 1>(&mut a, &mut v);
+                rotate::<0, 2>(&mut a, &mut v);
+                rotate::<1, 2>(&mut a, &mut v);
+            }
+            let vals = [a[0][0], a[1][1], a[2][2]];
+            let mut idx = [0usize, 1, 2];
+            idx.sort_unstable_by(|&i, &j| vals[i].total_cmp(&vals[j]));
+            (
+                idx.map(|i| vals[i]),
+                idx.map(|i| [v[0][i], v[1][i], v[2][i]]),
+            )
+        };
+        let alone: std::vec::Vec<_> = ms.iter().map(one).collect();
+        for (m, &want) in ms.iter().zip(&alone) {
+            assert_eq!(bits(m.eigen()), bits(want), "{m:?}");
+        }
+        for start in 0..ms.len() - 4 {
+            let four = [ms[start], ms[start + 1], ms[start + 2], ms[start + 3]];
+            for (l, got) in Sym3::eigen_lanes(&four).into_iter().enumerate() {
+                assert_eq!(bits(got), bits(alone[start + l]), "matrix {}", start + l);
             }
         }
     }

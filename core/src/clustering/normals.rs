@@ -33,8 +33,13 @@ pub fn pca(points: &[V3], nb: &Neighbours, i: usize) -> V3 {
 /// covariance: 0 on a plane, small on a smooth surface, up to 1/3 where the
 /// neighbourhood straddles a sharp feature or is pure noise.
 pub fn pca_with_variation(points: &[V3], nb: &Neighbours, i: usize) -> (V3, f32) {
-    let row = nb.of(i);
-    let (_, vals, vecs) = neighbourhood_pca(points, i, row);
+    let (_, vals, vecs) = neighbourhood_pca(points, i, nb.of(i));
+    with_variation(vals, vecs)
+}
+
+/// The normal (the least eigenvalue's vector) and the surface variation of
+/// an eigen-decomposition.
+fn with_variation(vals: [f64; 3], vecs: [[f64; 3]; 3]) -> (V3, f32) {
     let v = vecs[0];
     let total = vals[0].max(0.0) + vals[1].max(0.0) + vals[2].max(0.0);
     let variation = if total > 0.0 {
@@ -52,6 +57,14 @@ pub fn neighbourhood_pca(
     i: usize,
     row: &[u32],
 ) -> ([f64; 3], [f64; 3], [[f64; 3]; 3]) {
+    let (c, s) = covariance(points, i, row);
+    let (vals, vecs) = s.eigen();
+    (c, vals, vecs)
+}
+
+/// Centroid and covariance (unnormalised) of point `i` and the points `row`
+/// indexes, in `f64`. Indices out of range are skipped.
+fn covariance(points: &[V3], i: usize, row: &[u32]) -> ([f64; 3], Sym3) {
     let around = || {
         points
             .get(i)
@@ -82,8 +95,7 @@ pub fn neighbourhood_pca(
         s[4] += d[1] * d[2];
         s[5] += d[2] * d[2];
     }
-    let (vals, vecs) = Sym3(s).eigen();
-    (c, vals, vecs)
+    (c, Sym3(s))
 }
 
 /// The normal of point `i` and its surface variation: the given normal (variation
@@ -93,4 +105,27 @@ pub fn normal_of(points: &[V3], given: Option<&[V3]>, nb: &Neighbours, i: usize)
         Some(n) => (n, 0.0),
         None => pca_with_variation(points, nb, i),
     }
+}
+
+/// [`normal_of`] of the `L` points `is` at once, each what it gives alone:
+/// the eigen-solves of those without a usable given normal overlap
+/// ([`Sym3::eigen_lanes`]; those with one solve a zero matrix, which stops
+/// at once). The normals stage spent about a tenth of a run in eigen-solves,
+/// most of it waiting on their divisions and square roots.
+pub fn normals_of_lanes<const L: usize>(
+    points: &[V3],
+    given: Option<&[V3]>,
+    nb: &Neighbours,
+    is: [usize; L],
+) -> [(V3, f32); L] {
+    let usable_given = is.map(|i| given.and_then(|g| g.get(i).copied()).and_then(usable));
+    let covariances: [Sym3; L] = core::array::from_fn(|l| match usable_given[l] {
+        Some(_) => Sym3::default(),
+        None => covariance(points, is[l], nb.of(is[l])).1,
+    });
+    let solved = Sym3::eigen_lanes(&covariances);
+    core::array::from_fn(|l| match usable_given[l] {
+        Some(n) => (n, 0.0),
+        None => with_variation(solved[l].0, solved[l].1),
+    })
 }

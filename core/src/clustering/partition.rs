@@ -1220,6 +1220,9 @@ fn grow_from(ctx: &Ctx, generators: &[V3], f: &mut Front, q: usize) {
     }
 }
 
+/// Clusters whose generators [`update`] solves for at once.
+const UPDATE_LANES: usize = 4;
+
 /// Recompute every generator as its cluster's QEM optimum and pick the next seeds.
 /// Returns whether any generator moved. Clusters are independent: parallel
 /// tasks over ranges of clusters, each summing its members in point order (the
@@ -1240,33 +1243,61 @@ pub(crate) fn update(
     let (start, members) = members_in(s, labels, m)?;
     let (start, members) = (&*start, &*members);
     let of = |j: usize| &members[start[j] as usize..start[j + 1] as usize];
+    // A cluster's quadric (its members' diffused ones summed in point
+    // order), its minimiser's weight and its centroid.
+    let summed = |j: usize| {
+        let mut quadric = Quadric::default();
+        let mut sum = [0.0f64; 3];
+        for &i in of(j) {
+            ctx.planes.accumulate_diffused(
+                ctx.nb,
+                ctx.points[i as usize],
+                i as usize,
+                &mut quadric,
+            );
+            let p = ctx.points[i as usize];
+            for a in 0..3 {
+                sum[a] += p[a] as f64;
+            }
+        }
+        let count = of(j).len() as f64;
+        let centre = if count == 0.0 {
+            [0.0; 3]
+        } else {
+            [sum[0] / count, sum[1] / count, sum[2] / count]
+        };
+        (quadric, ctx.lambda_w as f64 * count, centre)
+    };
     let moved = parallel::rows(hooks, generators, 1, |clusters, out: &mut [V3]| {
         let mut moved = false;
-        for (j, g_out) in clusters.zip(out.iter_mut()) {
-            let mut quadric = Quadric::default();
-            let mut sum = [0.0f64; 3];
-            for &i in of(j) {
-                ctx.planes.accumulate_diffused(
-                    ctx.nb,
-                    ctx.points[i as usize],
-                    i as usize,
-                    &mut quadric,
-                );
-                let p = ctx.points[i as usize];
-                for a in 0..3 {
-                    sum[a] += p[a] as f64;
+        // UPDATE_LANES clusters at a time, their solves overlapping (an
+        // empty cluster, or a lane past the range, solves a zero quadric and
+        // is not kept).
+        for (chunk, first) in out
+            .chunks_mut(UPDATE_LANES)
+            .zip(clusters.step_by(UPDATE_LANES))
+        {
+            let sums: [_; UPDATE_LANES] = core::array::from_fn(|l| {
+                if l < chunk.len() {
+                    summed(first + l)
+                } else {
+                    (Quadric::default(), 0.0, [0.0; 3])
                 }
-            }
-            let count = of(j).len() as f64;
-            if count == 0.0 {
-                continue;
-            }
-            let centre = [sum[0] / count, sum[1] / count, sum[2] / count];
-            let (x, _rank) = quadric.minimizer(ctx.lambda_w as f64 * count, centre);
-            let g = [x[0] as f32, x[1] as f32, x[2] as f32];
-            if g.iter().all(|v| v.is_finite()) && g != *g_out {
-                *g_out = g;
-                moved = true;
+            });
+            let solved = Quadric::minimizers::<UPDATE_LANES>(&core::array::from_fn(|l| {
+                let (quadric, mu, centre) = &sums[l];
+                (quadric, *mu, *centre)
+            }));
+            for (l, g_out) in chunk.iter_mut().enumerate() {
+                if of(first + l).is_empty() {
+                    continue;
+                }
+                let x = solved[l].0;
+                let g = [x[0] as f32, x[1] as f32, x[2] as f32];
+                if g.iter().all(|v| v.is_finite()) && g != *g_out {
+                    *g_out = g;
+                    moved = true;
+                }
             }
         }
         moved

@@ -218,8 +218,21 @@ pub(crate) fn try_planes_with<'a>(
         planes,
         1,
         |items, out: &mut [Plane]| {
-            for (i, plane) in items.zip(out.iter_mut()) {
-                *plane = plane_of(points, given_normals, nb, i);
+            // PCA_LANES points at a time, their eigen-solves overlapping.
+            let mut i = items.start;
+            for chunk in out.chunks_mut(PCA_LANES) {
+                if let Ok(chunk) = <&mut [Plane; PCA_LANES]>::try_from(&mut *chunk) {
+                    let is: [usize; PCA_LANES] = core::array::from_fn(|l| i + l);
+                    let normals = normals::normals_of_lanes(points, given_normals, nb, is);
+                    for ((plane, i), normal) in chunk.iter_mut().zip(is).zip(normals) {
+                        *plane = plane_with(points, nb, i, normal);
+                    }
+                } else {
+                    for (plane, i) in chunk.iter_mut().zip(i..) {
+                        *plane = plane_of(points, given_normals, nb, i);
+                    }
+                }
+                i += PCA_LANES;
             }
         },
         |()| {},
@@ -292,6 +305,20 @@ fn local_of(planes: &[Plane], points: &[V3], nb: &Neighbours, i: usize) -> Local
 /// The plane factor of point `i`: its normal, and its support area (the
 /// squared mean distance to its neighbours, halved) scaled by [`confidence`].
 fn plane_of(points: &[V3], given_normals: Option<&[V3]>, nb: &Neighbours, i: usize) -> Plane {
+    plane_with(
+        points,
+        nb,
+        i,
+        normals::normal_of(points, given_normals, nb, i),
+    )
+}
+
+/// Points whose normals [`try_planes_with`] finds at once
+/// ([`normals::normals_of_lanes`]).
+const PCA_LANES: usize = 4;
+
+/// [`plane_of`] with point `i`'s normal and surface variation given.
+fn plane_with(points: &[V3], nb: &Neighbours, i: usize, (nrm, variation): (V3, f32)) -> Plane {
     let p = points[i];
     let row = nb.of(i);
     let mut mean = 0.0f64;
@@ -299,7 +326,6 @@ fn plane_of(points: &[V3], given_normals: Option<&[V3]>, nb: &Neighbours, i: usi
         mean += libm::sqrt(dist2(p, points[j as usize]) as f64);
     }
     mean /= row.len().max(1) as f64;
-    let (nrm, variation) = normals::normal_of(points, given_normals, nb, i);
     let area = mean * mean / 2.0 * confidence(variation);
     let s = libm::sqrt(area);
     let d =
@@ -521,19 +547,29 @@ impl Quadric {
     /// cylindrical cluster) gets the least-norm displacement, i.e. the optimum
     /// closest to `centre`. Returns the point and the numerical rank.
     pub fn minimizer(&self, mu: f64, centre: D3) -> (D3, u32) {
-        let mut m = Sym3(self.a);
-        m.0[0] += mu;
-        m.0[3] += mu;
-        m.0[5] += mu;
-        // Gradient of Q at the centre (halved): A x + b.
-        let g = Sym3(self.a).mul(centre);
-        let rhs = [
-            -(g[0] + self.b[0]),
-            -(g[1] + self.b[1]),
-            -(g[2] + self.b[2]),
-        ];
-        let (d, rank) = m.pseudo_solve(rhs, 1e-9);
-        ([centre[0] + d[0], centre[1] + d[1], centre[2] + d[2]], rank)
+        let [one] = Quadric::minimizers(&[(self, mu, centre)]);
+        one
+    }
+
+    /// [`Quadric::minimizer`] of `L` quadrics at once, each what it gives
+    /// alone (their eigen-solves overlap, [`Sym3::pseudo_solve_lanes`]).
+    #[inline(always)]
+    pub fn minimizers<const L: usize>(qs: &[(&Quadric, f64, D3); L]) -> [(D3, u32); L] {
+        let systems = qs.map(|(q, mu, centre)| {
+            let mut m = Sym3(q.a);
+            m.0[0] += mu;
+            m.0[3] += mu;
+            m.0[5] += mu;
+            // Gradient of Q at the centre (halved): A x + b.
+            let g = Sym3(q.a).mul(centre);
+            let rhs = [-(g[0] + q.b[0]), -(g[1] + q.b[1]), -(g[2] + q.b[2])];
+            (m, rhs)
+        });
+        let solved = Sym3::pseudo_solve_lanes(&systems, 1e-9);
+        core::array::from_fn(|l| {
+            let ((d, rank), centre) = (solved[l], qs[l].2);
+            ([centre[0] + d[0], centre[1] + d[1], centre[2] + d[2]], rank)
+        })
     }
 }
 
