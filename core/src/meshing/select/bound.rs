@@ -201,7 +201,7 @@ fn equalising_shares(score: f64, on_minus_off: &[f64]) -> [f64; MAX_CONSTRAINTS]
 /// Whether a refresh of every edge brings the losses (`loss_if_on`,
 /// `loss_if_off`) up to date too, or leaves them stale (the top shares,
 /// terms and picks are fresh either way).
-#[derive(Clone, Copy, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) enum Losses {
     Fresh,
     Stale,
@@ -510,7 +510,7 @@ impl Solver<'_> {
         edges: &[u32],
         losses: Losses,
         hooks: &dyn Progress,
-    ) {
+    ) -> Option<u32> {
         self.drop_pending_updates();
         let ascending = |list: &[u32]| list.windows(2).all(|w| w[0] < w[1]);
         let ends = match (edges.first(), edges.last(), facets.first(), facets.last()) {
@@ -525,7 +525,7 @@ impl Solver<'_> {
             for &e in edges {
                 self.refresh_edge(e as usize, losses);
             }
-            return;
+            return None;
         };
         let (e0, e1) = (e_first as usize, e_last as usize + 1);
         let terms = core::mem::take(&mut self.edge_terms);
@@ -556,21 +556,25 @@ impl Solver<'_> {
         if losses == Losses::Stale {
             let picked = core::mem::take(&mut self.picked_by);
             let this = &*self;
-            parallel::segments(
+            let disagreeing = parallel::segments(
                 hooks,
                 &mut picked[f0..f1],
                 facets.len(),
                 f_at,
                 |items, picked| {
                     let base = f_at(items.start);
+                    let mut disagreeing = 0u32;
                     for j in items {
                         let f = facets[j] as usize;
-                        picked[f - f0 - base] = this.facet_marginals(f, None);
+                        let p = this.facet_marginals(f, None);
+                        picked[f - f0 - base] = p;
+                        disagreeing += u32::from(this.disagrees(f, p));
                     }
+                    disagreeing
                 },
             );
             self.picked_by = picked;
-            return;
+            return Some(disagreeing.iter().sum());
         }
         let (x0, x1) = (self.facet_start[f0] as usize, self.facet_start[f1] as usize);
         let on = core::mem::take(&mut self.loss_if_on);
@@ -583,7 +587,7 @@ impl Solver<'_> {
                 .map_or(x1, |&f| this.facet_start[f as usize] as usize)
                 - x0
         };
-        parallel::segments3(
+        let disagreeing = parallel::segments3(
             hooks,
             &mut on[x0..x1],
             &mut off[x0..x1],
@@ -593,17 +597,22 @@ impl Solver<'_> {
             f_at,
             |items, on, off, picked| {
                 let (base_x, base_f) = (x_at(items.start), f_at(items.start));
+                let mut disagreeing = 0u32;
                 for j in items {
                     let f = facets[j] as usize;
                     let xs = this.facet_incidences(f);
                     let lo = xs.start - x0 - base_x;
                     let n = xs.len();
-                    picked[f - f0 - base_f] =
+                    let p =
                         this.facet_marginals(f, Some((&mut on[lo..lo + n], &mut off[lo..lo + n])));
+                    picked[f - f0 - base_f] = p;
+                    disagreeing += u32::from(this.disagrees(f, p));
                 }
+                disagreeing
             },
         );
         (self.loss_if_on, self.loss_if_off, self.picked_by) = (on, off, picked);
+        Some(disagreeing.iter().sum())
     }
 
     /// Make (`facets`, `edges`) the current problem, with fresh caches (see
@@ -633,7 +642,7 @@ impl Solver<'_> {
                 self.selected_score += self.scores[f] as f64;
             }
         }
-        self.refresh_all(facets, edges, losses, hooks);
+        let _ = self.refresh_all(facets, edges, losses, hooks);
     }
 
     /// End the current problem (`facets`, `edges`); no edge waits for a refresh after.
@@ -668,10 +677,14 @@ impl Solver<'_> {
     pub(super) fn disagreements(&self, facets: &[u32]) -> u32 {
         facets
             .iter()
-            .filter(|&&f| {
-                self.facet_state[f as usize] == UNDECIDED && !self.edges_agree(f as usize)
-            })
+            .filter(|&&f| self.disagrees(f as usize, self.picked_by[f as usize]))
             .count() as u32
+    }
+
+    /// Whether facet `f`, picked by the edges of mask `picked`, is undecided
+    /// and its edges disagree on it ([`Solver::edges_agree`] with `picked`).
+    fn disagrees(&self, f: usize, picked: u8) -> bool {
+        self.facet_state[f] == UNDECIDED && picked != 0 && picked != self.picked_by_all(f)
     }
 
     /// Coordinate descent on one facet, from the caches: re-split its score so that
@@ -1065,6 +1078,9 @@ impl Solver<'_> {
     ) -> f64 {
         let mut lowest = f64::INFINITY;
         let mut temperature = ROOT_TEMPERATURE * self.score_scale;
+        // The disagreements the last sweep's refresh counted in its tasks
+        // (the bound and rounding change no pick or state).
+        let mut counted = None;
         for sweep in 0..ROOT_SWEEPS {
             let current = self.bound(edges);
             lowest = lowest.min(current);
@@ -1073,7 +1089,8 @@ impl Solver<'_> {
                     *incumbent_value = v;
                 }
             }
-            if self.disagreements(facets) == 0 {
+            let disagreeing = counted.take().unwrap_or_else(|| self.disagreements(facets));
+            if disagreeing == 0 {
                 if current > *incumbent_value {
                     self.record_agreed_picks(facets);
                     *incumbent_value = current;
@@ -1099,7 +1116,7 @@ impl Solver<'_> {
                 // The sweeps read only the shares, the bound and rounding
                 // only the terms and picks; every later reader of the losses
                 // opens the problem again (a fresh refresh).
-                self.refresh_all(facets, edges, Losses::Stale, hooks);
+                counted = self.refresh_all(facets, edges, Losses::Stale, hooks);
             }
         }
         lowest
