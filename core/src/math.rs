@@ -158,6 +158,13 @@ pub fn dot_d(a: D3, b: D3) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
+/// How many eigen-solves the stages that make many take at once
+/// ([`Sym3::eigen_lanes`]): four where a processor runs ahead out of order
+/// and overlaps them; one on a bare-metal target (a microcontroller: in
+/// order, `f64` in software), where the lanes would only cost code (14 KB
+/// of the Cortex-M4F firmware's flash). Each solve is the same either way.
+pub const SOLVE_LANES: usize = if cfg!(target_os = "none") { 1 } else { 4 };
+
 /// Symmetric 3x3 matrix stored as its upper triangle: xx xy xz yy yz zz.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Sym3(pub [f64; 6]);
@@ -218,7 +225,7 @@ impl Sym3 {
     /// square roots (about a hundred cycles of latency, a few of work), so
     /// one matrix's rotations leave the processor idle; the matrices' are
     /// independent, and taken in turn, plane by plane, they overlap.
-    #[inline(always)]
+    #[inline]
     pub fn eigen_lanes<const L: usize>(ms: &[Sym3; L]) -> [([f64; 3], [D3; 3]); L] {
         let mut a: [[D3; 3]; L] = core::array::from_fn(|l| ms[l].full());
         let mut v = [[[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]; L];
@@ -277,7 +284,7 @@ impl Sym3 {
 
     /// [`Sym3::pseudo_solve`] of `L` systems at once, each what it gives alone
     /// (their eigen-solves overlap, [`Sym3::eigen_lanes`]).
-    #[inline(always)]
+    #[inline]
     pub fn pseudo_solve_lanes<const L: usize>(
         systems: &[(Sym3, D3); L],
         rel: f64,

@@ -1221,7 +1221,7 @@ fn grow_from(ctx: &Ctx, generators: &[V3], f: &mut Front, q: usize) {
 }
 
 /// Clusters whose generators [`update`] solves for at once.
-const UPDATE_LANES: usize = 4;
+const UPDATE_LANES: usize = crate::math::SOLVE_LANES;
 
 /// Recompute every generator as its cluster's QEM optimum and pick the next seeds.
 /// Returns whether any generator moved. Clusters are independent: parallel

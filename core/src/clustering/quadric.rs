@@ -315,7 +315,7 @@ fn plane_of(points: &[V3], given_normals: Option<&[V3]>, nb: &Neighbours, i: usi
 
 /// Points whose normals [`try_planes_with`] finds at once
 /// ([`normals::normals_of_lanes`]).
-const PCA_LANES: usize = 4;
+const PCA_LANES: usize = crate::math::SOLVE_LANES;
 
 /// [`plane_of`] with point `i`'s normal and surface variation given.
 fn plane_with(points: &[V3], nb: &Neighbours, i: usize, (nrm, variation): (V3, f32)) -> Plane {
@@ -553,7 +553,7 @@ impl Quadric {
 
     /// [`Quadric::minimizer`] of `L` quadrics at once, each what it gives
     /// alone (their eigen-solves overlap, [`Sym3::pseudo_solve_lanes`]).
-    #[inline(always)]
+    #[inline]
     pub fn minimizers<const L: usize>(qs: &[(&Quadric, f64, D3); L]) -> [(D3, u32); L] {
         let systems = qs.map(|(q, mu, centre)| {
             let mut m = Sym3(q.a);
