@@ -63,8 +63,10 @@ pub const GRANULE: usize = 8;
 
 /// Fewest bytes an allocation of [`Alloc::try_alloc_slice_on`] fills on
 /// several threads (below it, handing out the tasks costs more than they
-/// save).
-pub const PARALLEL_FILL: usize = 64 * 1024;
+/// save). Under Miri a few hundred bytes, so that its run of the tests
+/// takes the parallel path without filling megabytes an interpreted write
+/// at a time (the test of the fills took Miri over twenty minutes).
+pub const PARALLEL_FILL: usize = if cfg!(miri) { 256 } else { 64 * 1024 };
 
 /// `bytes` rounded up to a multiple of [`GRANULE`] (`None` on overflow).
 fn granules(bytes: usize) -> Option<usize> {
@@ -744,7 +746,7 @@ mod tests {
 
     #[test]
     fn fills_on_threads_are_the_fills_of_one() {
-        let mut b = std::vec![MaybeUninit::uninit(); 4 << 20];
+        let mut b = std::vec![MaybeUninit::uninit(); 64 * PARALLEL_FILL];
         let a = Arena::new(&mut b);
         let n = PARALLEL_FILL; // u32s: four times the threshold in bytes
         for keep in [(|_| true) as fn(usize) -> bool, |t| t % 3 == 1, |_| false] {
