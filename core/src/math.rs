@@ -198,6 +198,21 @@ fn rotate<const P: usize, const Q: usize>(a: &mut [D3; 3], v: &mut [D3; 3]) {
     }
 }
 
+/// [`rotate`] in the `(P, Q)` plane of every matrix of `a` (vectors `v`)
+/// still `live`, one after another.
+#[inline(always)]
+fn rotate_live<const P: usize, const Q: usize, const L: usize>(
+    a: &mut [[D3; 3]; L],
+    v: &mut [[D3; 3]; L],
+    live: &[bool; L],
+) {
+    for ((a, v), &live) in a.iter_mut().zip(v.iter_mut()).zip(live) {
+        if live {
+            rotate::<P, Q>(a, v);
+        }
+    }
+}
+
 impl Sym3 {
     #[inline]
     pub fn full(&self) -> [[f64; 3]; 3] {
@@ -244,21 +259,9 @@ impl Sym3 {
                 break;
             }
             // The three planes in turn, each rotation's indices constants.
-            for ((a, v), &live) in a.iter_mut().zip(v.iter_mut()).zip(&live) {
-                if live {
-                    rotate::<0, 1>(a, v);
-                }
-            }
-            for ((a, v), &live) in a.iter_mut().zip(v.iter_mut()).zip(&live) {
-                if live {
-                    rotate::<0, 2>(a, v);
-                }
-            }
-            for ((a, v), &live) in a.iter_mut().zip(v.iter_mut()).zip(&live) {
-                if live {
-                    rotate::<1, 2>(a, v);
-                }
-            }
+            rotate_live::<0, 1, L>(&mut a, &mut v, &live);
+            rotate_live::<0, 2, L>(&mut a, &mut v, &live);
+            rotate_live::<1, 2, L>(&mut a, &mut v, &live);
         }
         core::array::from_fn(|l| {
             let (a, v) = (&a[l], &v[l]);

@@ -101,27 +101,33 @@ fn covariance(points: &[V3], i: usize, row: &[u32]) -> ([f64; 3], Sym3) {
 /// The normal of point `i` and its surface variation: the given normal (variation
 /// 0) when usable, else PCA.
 pub fn normal_of(points: &[V3], given: Option<&[V3]>, nb: &Neighbours, i: usize) -> (V3, f32) {
-    match given.and_then(|g| g.get(i).copied()).and_then(usable) {
+    match given_normal(given, i) {
         Some(n) => (n, 0.0),
         None => pca_with_variation(points, nb, i),
     }
 }
 
-/// [`normal_of`] of the `L` points `is` at once, each what it gives alone:
-/// the eigen-solves of those without a usable given normal overlap
-/// ([`Sym3::eigen_lanes`]; those with one solve a zero matrix, which stops
-/// at once). The normals stage spent about a tenth of a run in eigen-solves,
-/// most of it waiting on their divisions and square roots.
+/// Point `i`'s given normal when there is one and it is [`usable`].
+fn given_normal(given: Option<&[V3]>, i: usize) -> Option<V3> {
+    given.and_then(|g| g.get(i).copied()).and_then(usable)
+}
+
+/// [`normal_of`] of the `L` points `is` at once (`None`: a lane not used,
+/// whose result is meaningless), each what it gives alone: the eigen-solves
+/// of those without a usable given normal overlap ([`Sym3::eigen_lanes`];
+/// the others solve a zero matrix, which stops at once). The normals stage
+/// spent about a tenth of a run in eigen-solves, most of it waiting on their
+/// divisions and square roots.
 pub fn normals_of_lanes<const L: usize>(
     points: &[V3],
     given: Option<&[V3]>,
     nb: &Neighbours,
-    is: [usize; L],
+    is: [Option<usize>; L],
 ) -> [(V3, f32); L] {
-    let usable_given = is.map(|i| given.and_then(|g| g.get(i).copied()).and_then(usable));
-    let covariances: [Sym3; L] = core::array::from_fn(|l| match usable_given[l] {
-        Some(_) => Sym3::default(),
-        None => covariance(points, is[l], nb.of(is[l])).1,
+    let usable_given = is.map(|i| i.and_then(|i| given_normal(given, i)));
+    let covariances: [Sym3; L] = core::array::from_fn(|l| match (is[l], usable_given[l]) {
+        (Some(i), None) => covariance(points, i, nb.of(i)).1,
+        _ => Sym3::default(),
     });
     let solved = Sym3::eigen_lanes(&covariances);
     core::array::from_fn(|l| match usable_given[l] {

@@ -218,21 +218,15 @@ pub(crate) fn try_planes_with<'a>(
         planes,
         1,
         |items, out: &mut [Plane]| {
-            // PCA_LANES points at a time, their eigen-solves overlapping.
-            let mut i = items.start;
-            for chunk in out.chunks_mut(PCA_LANES) {
-                if let Ok(chunk) = <&mut [Plane; PCA_LANES]>::try_from(&mut *chunk) {
-                    let is: [usize; PCA_LANES] = core::array::from_fn(|l| i + l);
-                    let normals = normals::normals_of_lanes(points, given_normals, nb, is);
-                    for ((plane, i), normal) in chunk.iter_mut().zip(is).zip(normals) {
-                        *plane = plane_with(points, nb, i, normal);
-                    }
-                } else {
-                    for (plane, i) in chunk.iter_mut().zip(i..) {
-                        *plane = plane_of(points, given_normals, nb, i);
-                    }
+            // PCA_LANES points at a time, their eigen-solves overlapping
+            // (lanes past the range unused).
+            for (chunk, first) in out.chunks_mut(PCA_LANES).zip(items.step_by(PCA_LANES)) {
+                let is: [Option<usize>; PCA_LANES] =
+                    core::array::from_fn(|l| (l < chunk.len()).then_some(first + l));
+                let normals = normals::normals_of_lanes(points, given_normals, nb, is);
+                for ((plane, i), normal) in chunk.iter_mut().zip(first..).zip(normals) {
+                    *plane = plane_with(points, nb, i, normal);
                 }
-                i += PCA_LANES;
             }
         },
         |()| {},
@@ -302,22 +296,13 @@ fn local_of(planes: &[Plane], points: &[V3], nb: &Neighbours, i: usize) -> Local
     q.to_local()
 }
 
-/// The plane factor of point `i`: its normal, and its support area (the
-/// squared mean distance to its neighbours, halved) scaled by [`confidence`].
-fn plane_of(points: &[V3], given_normals: Option<&[V3]>, nb: &Neighbours, i: usize) -> Plane {
-    plane_with(
-        points,
-        nb,
-        i,
-        normals::normal_of(points, given_normals, nb, i),
-    )
-}
-
 /// Points whose normals [`try_planes_with`] finds at once
 /// ([`normals::normals_of_lanes`]).
 const PCA_LANES: usize = crate::math::SOLVE_LANES;
 
-/// [`plane_of`] with point `i`'s normal and surface variation given.
+/// The plane factor of point `i`: its normal (with its surface variation,
+/// as [`normals::normal_of`] gives them), and its support area (the squared
+/// mean distance to its neighbours, halved) scaled by [`confidence`].
 fn plane_with(points: &[V3], nb: &Neighbours, i: usize, (nrm, variation): (V3, f32)) -> Plane {
     let p = points[i];
     let row = nb.of(i);

@@ -682,9 +682,9 @@ impl Solver<'_> {
     }
 
     /// Whether facet `f`, picked by the edges of mask `picked`, is undecided
-    /// and its edges disagree on it ([`Solver::edges_agree`] with `picked`).
+    /// and its edges disagree on it.
     fn disagrees(&self, f: usize, picked: u8) -> bool {
-        self.facet_state[f] == UNDECIDED && picked != 0 && picked != self.picked_by_all(f)
+        self.facet_state[f] == UNDECIDED && !self.picks_agree(f, picked)
     }
 
     /// Coordinate descent on one facet, from the caches: re-split its score so that

@@ -455,7 +455,13 @@ impl<'a> Solver<'a> {
 
     /// Whether the edges of undecided facet `f` agree on it (all pick it or none).
     pub(super) fn edges_agree(&self, f: usize) -> bool {
-        self.picked_by[f] == 0 || self.picked_by[f] == self.picked_by_all(f)
+        self.picks_agree(f, self.picked_by[f])
+    }
+
+    /// [`Solver::edges_agree`] with `picked` as the facet's picks (a mask
+    /// not yet stored, as a refresh's tasks have it).
+    pub(super) fn picks_agree(&self, f: usize, picked: u8) -> bool {
+        picked == 0 || picked == self.picked_by_all(f)
     }
 
     /// Breadth-first walk over shared edges from `facets[0]` (already claimed):
