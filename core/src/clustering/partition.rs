@@ -31,7 +31,7 @@
 use crate::arena::{padded_bytes, Alloc, Arena, Scratch};
 use crate::clustering::knn::Neighbours;
 use crate::clustering::quadric::{plane_eval, Planes, Quadric};
-use crate::clustering::slabs;
+use crate::clustering::slabs::{self, Shares};
 use crate::clustering::split;
 use crate::clustering::sweep::{self, Start};
 use crate::error::Result;
@@ -219,6 +219,8 @@ pub struct ClusterState<'a> {
     border: &'a mut [u8],
     /// Whether passes partition by sweeps ([`Partition::sweeps`]).
     sweeps: bool,
+    /// How region growing shares the points among its slabs.
+    shares: Shares,
     generators: &'a mut [V3],
     seeds: &'a mut [u32],
     /// Generators and seeds kept by [`ClusterState::checkpoint`] (splitting's
@@ -530,9 +532,11 @@ impl<'a> ClusterState<'a> {
             seeds: &mut *self.seeds,
             border: &mut *self.border,
             sweeps: self.sweeps,
+            shares: self.shares,
         };
         let total = &mut self.stats.energy;
         repartition(arena, ctx, &mut st, grown, Start::Warm, total, &*progress)?;
+        self.shares = st.shares;
         if let Some(params) = params {
             let planned = self.stats.passes + params.split_iterations.max(1);
             passes(
@@ -617,6 +621,7 @@ pub fn try_cluster_state_in<'a>(
         seeds,
         border,
         sweeps,
+        shares: Shares::default(),
     };
     let total = &mut stats.energy;
     repartition(arena, &ctx, &mut st, m, Start::Fresh, total, &*progress)?;
@@ -732,11 +737,13 @@ pub fn try_cluster_state_in<'a>(
         seeds,
         border,
         sweeps,
+        shares,
     } = st;
     Ok(ClusterState {
         labels,
         border,
         sweeps,
+        shares,
         generators,
         seeds,
         kept_g,
@@ -755,6 +762,8 @@ struct State<'x> {
     seeds: &'x mut [u32],
     border: &'x mut [u8],
     sweeps: bool,
+    /// How region growing shares the points among its slabs.
+    shares: Shares,
 }
 
 /// Partition the points among the first `m` clusters of `st` (scratch from
@@ -791,7 +800,7 @@ fn repartition_knowing(
         if st.sweeps {
             sweep::partition(s, ctx, g, s_, st.labels, st.border, start, hooks)
         } else {
-            *energy = partition(s, ctx, g, s_, st.labels, start, own, hooks)?;
+            *energy = partition(s, ctx, g, s_, st.labels, start, own, &mut st.shares, hooks)?;
             Ok(())
         }
     })
@@ -1070,6 +1079,7 @@ pub(crate) fn partition(
     labels: &mut [u32],
     start: Start,
     own: Option<&[f32]>,
+    shares: &mut Shares,
     hooks: &dyn Progress,
 ) -> Result<f64> {
     let n = labels.len();
@@ -1100,7 +1110,7 @@ pub(crate) fn partition(
     if hooks.threads() > 1 {
         let guess = &*guess;
         let grown = s.scratch(|inner| {
-            slabs::grow_in_slabs(inner, ctx, generators, seeds, guess, labels, hooks)
+            slabs::grow_in_slabs(inner, ctx, generators, seeds, guess, labels, shares, hooks)
         });
         if let Some(energy) = grown {
             return Ok(energy);
@@ -1407,13 +1417,24 @@ mod tests {
         arena
             .scratch(|s| {
                 let (g, sd) = (&generators[..m], &seeds[..m]);
-                partition(s, &ctx, g, sd, labels, Start::Fresh, None, &Silent)
+                partition(
+                    s,
+                    &ctx,
+                    g,
+                    sd,
+                    labels,
+                    Start::Fresh,
+                    None,
+                    &mut Shares::default(),
+                    &Silent,
+                )
             })
             .unwrap();
         ClusterState {
             labels,
             border: &mut [],
             sweeps: false,
+            shares: Shares::default(),
             generators,
             seeds,
             kept_g: arena.try_alloc_slice::<V3>(m, [0.0; 3]).unwrap(),

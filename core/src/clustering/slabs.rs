@@ -20,7 +20,9 @@
 //!   offers from a seed: the least such assignment, which the growth reaches.
 //!
 //! Here the points are cut into one slab a thread ([`MAX_SLABS`] at most)
-//! across the longest axis of the seeds' box, at quantiles of the points. Each
+//! across the longest axis of the seeds' box, at quantiles of the points in
+//! proportion to the rates the slabs grew at last time ([`Shares`]: on a
+//! machine whose cores run at different speeds the slabs end together). Each
 //! slab grows from its own seeds over its own points on its own thread,
 //! recording each point's level and the point whose offer it holds. Then a
 //! repair makes the union what growing as one gives (its first step in
@@ -71,6 +73,65 @@ const MIN_SLAB_POINTS: usize = 4096;
 const MIN_SLAB_CLUSTERS: usize = 32;
 /// Most points sampled to place the cuts.
 const CUT_SAMPLE: usize = 4096;
+
+/// Set in a slab's count of points grown when it has finished.
+const FINISHED: u32 = 1 << 31;
+/// How many points a slab grows between updates of its count.
+const COUNT_EVERY: usize = 256;
+
+/// How the points are shared among the slabs: each slab's growth rate (points
+/// a unit of time) when last measured, relative to the others. The slabs' cuts
+/// follow it, so a thread that grows faster (another core, or a virtual core
+/// whose host is less busy) gets more points and the slabs end together. The
+/// labels are those of growing as one whatever the cuts: this moves only the
+/// time. Kept across the partitions of one clustering.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Shares {
+    rate: [u32; MAX_SLABS],
+}
+
+/// A slab's rate when shared evenly.
+const EVEN: u32 = 1 << 16;
+
+impl Default for Shares {
+    fn default() -> Self {
+        Shares {
+            rate: [EVEN; MAX_SLABS],
+        }
+    }
+}
+
+impl Shares {
+    /// The rates after a growth in `slabs` slabs in which `seen` is what the
+    /// slab that finished first saw when it did: each slab's points grown so
+    /// far ([`FINISHED`] set in those that had finished too). The rates
+    /// measured are averaged with the last ones (one slow growth moves the
+    /// cuts half the way) and kept within half and twice the even rate.
+    fn learn(&mut self, slabs: usize, seen: &[u32; MAX_SLABS]) {
+        let slabs = slabs.min(MAX_SLABS);
+        let total: u64 = seen[..slabs].iter().map(|&d| (d & !FINISHED) as u64).sum();
+        if slabs < 2 || total == 0 {
+            return;
+        }
+        for (r, &d) in self.rate[..slabs].iter_mut().zip(seen) {
+            let measured = ((d & !FINISHED) as u64 * slabs as u64 * EVEN as u64 / total) as u32;
+            let mixed = ((*r as u64 + measured as u64) / 2) as u32;
+            *r = mixed.clamp(EVEN / 2, EVEN * 2);
+        }
+    }
+
+    /// Slab `i`'s cumulative share of the first `slabs` slabs' points, up to
+    /// and including it, of `of`.
+    fn upto(&self, i: usize, slabs: usize, of: usize) -> usize {
+        let slabs = slabs.min(MAX_SLABS);
+        let sum: u64 = self.rate[..slabs].iter().map(|&r| r as u64).sum();
+        let upto: u64 = self.rate[..=i.min(slabs - 1)]
+            .iter()
+            .map(|&r| r as u64)
+            .sum();
+        (upto * of as u64).checked_div(sum).unwrap_or(0) as usize
+    }
+}
 
 /// Words of a point's slot.
 const WORDS: usize = 6;
@@ -229,6 +290,11 @@ struct Slab<'a, 'p, 'x, 'h> {
     cut: Option<usize>,
     /// Its points made final.
     finals: usize,
+    /// Every slab's count of points made final so far (now and then), with
+    /// [`FINISHED`] once it has finished.
+    counts: &'a [AtomicU32; MAX_SLABS],
+    /// The counts when it finished.
+    seen: [u32; MAX_SLABS],
 }
 
 impl Task for Slab<'_, '_, '_, '_> {
@@ -242,6 +308,7 @@ impl Task for Slab<'_, '_, '_, '_> {
         } = *self;
         let slots = shared.slots;
         let mine = |p: usize| part.get(p) == Some(&slab);
+        let count = self.counts.get(slab as usize);
         let mut heap = Heap {
             keys: &mut *self.room,
             len: 0,
@@ -288,6 +355,11 @@ impl Task for Slab<'_, '_, '_, '_> {
             }
             w[LABEL].store(label | FINAL, Relaxed);
             finals += 1;
+            if finals % COUNT_EVERY == 0 {
+                if let Some(c) = count {
+                    c.store(finals as u32 & !FINISHED, Relaxed);
+                }
+            }
             let from = w[FROM].load(Relaxed) as usize;
             slots.set_level(q, (top + 1).max(slots.level(from)));
             if offer_within(shared, &mut heap, part, slab, q) {
@@ -295,6 +367,11 @@ impl Task for Slab<'_, '_, '_, '_> {
             }
         }
         (self.cut, self.finals) = (cut, finals);
+        let done = finals.min(FINISHED as usize - 1) as u32 | FINISHED;
+        if let Some(c) = count {
+            c.store(done, Relaxed);
+        }
+        self.seen = core::array::from_fn(|i| self.counts.get(i).map_or(0, |c| c.load(Relaxed)));
     }
 }
 
@@ -781,8 +858,11 @@ impl Repair<'_, '_, '_, '_> {
 /// generators `generators`, costs `guess` computed ahead, possibly empty) in
 /// slabs at once, one a thread of `hooks`, then repaired (module docs): the
 /// labels of growing as one, and the energy (the points' costs summed by the
-/// tasks' ranges, in order). `None` when `hooks` has one thread, the slabs
-/// would be too small, or the scratch has no room (`labels` untouched).
+/// tasks' ranges, in order). The slabs' points in proportion to `shares`,
+/// which learns from the growth how fast each slab grew. `None` when `hooks`
+/// has one thread, the slabs would be too small, or the scratch has no room
+/// (`labels` untouched).
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn grow_in_slabs(
     s: &Scratch,
     ctx: &Ctx,
@@ -790,6 +870,7 @@ pub(crate) fn grow_in_slabs(
     seeds: &[u32],
     guess: &[(u32, f32)],
     labels: &mut [u32],
+    shares: &mut Shares,
     hooks: &dyn Progress,
 ) -> Option<f64> {
     let n = labels.len();
@@ -801,7 +882,7 @@ pub(crate) fn grow_in_slabs(
     if slabs < 2 || s.available() < slabs_bytes(n) || u32::try_from(n).is_err() {
         return None;
     }
-    let bounds = cuts(s, ctx, seeds, slabs)?;
+    let bounds = cuts(s, ctx, seeds, slabs, shares)?;
     let open = [
         NONE,
         f32::INFINITY.to_bits(),
@@ -849,6 +930,7 @@ pub(crate) fn grow_in_slabs(
     // list): one slot a point of the slab.
     let (mut cut, mut finals, mut marked) =
         ([None; MAX_SLABS], [0usize; MAX_SLABS], [0usize; MAX_SLABS]);
+    let grown = [const { AtomicU32::new(0) }; MAX_SLABS];
     {
         let mut cuts = split_by(list, &count).into_iter();
         let mut i = 0;
@@ -862,6 +944,8 @@ pub(crate) fn grow_in_slabs(
                 cuts: cuts.next().unwrap_or_default(),
                 cut: Some(0),
                 finals: 0,
+                counts: &grown,
+                seen: [0; MAX_SLABS],
             };
             i += 1;
             job
@@ -870,6 +954,15 @@ pub(crate) fn grow_in_slabs(
         hooks.run(&mut tasks[..slabs]);
         for (i, j) in jobs.iter().enumerate() {
             (cut[i], finals[i]) = (j.cut, j.finals);
+        }
+        // The slab that finished while all the others were growing, if one
+        // did (else they ended within a few hundred points of each other).
+        let first = jobs[..slabs]
+            .iter()
+            .enumerate()
+            .find(|(i, j)| (0..slabs).all(|k| k == *i || j.seen[k] & FINISHED == 0));
+        if let Some((_, j)) = first {
+            shares.learn(slabs, &j.seen);
         }
     }
     {
@@ -986,10 +1079,17 @@ fn split_by<'s, T>(all: &'s mut [T], count: &[usize; MAX_SLABS]) -> [&'s mut [T]
 }
 
 /// The axis of the longest side of the seeds' box and the `slabs - 1`
-/// coordinates along it that cut the points into slabs of about equal counts
-/// (quantiles of an even sample of at most [`CUT_SAMPLE`] points, sorted in
-/// scratch): a slab's growth costs in proportion to its points.
-fn cuts(s: &Scratch, ctx: &Ctx, seeds: &[u32], slabs: usize) -> Option<(usize, [f32; MAX_SLABS])> {
+/// coordinates along it that cut the points into slabs of counts in
+/// proportion to `shares` (quantiles of an even sample of at most
+/// [`CUT_SAMPLE`] points, sorted in scratch): a slab's growth costs in
+/// proportion to its points.
+fn cuts(
+    s: &Scratch,
+    ctx: &Ctx,
+    seeds: &[u32],
+    slabs: usize,
+    shares: &Shares,
+) -> Option<(usize, [f32; MAX_SLABS])> {
     let at = |p: usize| ctx.points.get(p).copied().unwrap_or([0.0; 3]);
     let mut lo = [f32::INFINITY; 3];
     let mut hi = [f32::NEG_INFINITY; 3];
@@ -1014,7 +1114,7 @@ fn cuts(s: &Scratch, ctx: &Ctx, seeds: &[u32], slabs: usize) -> Option<(usize, [
     let mut bounds = [f32::INFINITY; MAX_SLABS];
     for (i, b) in bounds[..slabs - 1].iter_mut().enumerate() {
         *b = along
-            .get((i + 1) * along.len() / slabs)
+            .get(shares.upto(i, slabs, along.len()))
             .copied()
             .unwrap_or(f32::INFINITY);
     }
@@ -1122,6 +1222,7 @@ mod tests {
                         &mut last,
                         Start::Fresh,
                         None,
+                        &mut Shares::default(),
                         &Silent,
                     )
                 })
@@ -1139,29 +1240,87 @@ mod tests {
                 let mut one = last.clone();
                 let e1 = arena
                     .scratch(|s| {
-                        partition(s, &ctx, generators, seeds, &mut one, start, None, &Silent)
+                        let even = &mut Shares::default();
+                        partition(
+                            s, &ctx, generators, seeds, &mut one, start, None, even, &Silent,
+                        )
                     })
                     .unwrap();
                 assert!(
                     one.iter().all(|&l| l != NONE),
                     "cloud {c}: a point left out"
                 );
-                for threads in [2, 3, 4] {
+                // Even shares, and shares skewed either way (each growth
+                // then learns from its tasks run one after another).
+                let skewed = Shares {
+                    rate: [
+                        2 * EVEN,
+                        EVEN / 2,
+                        EVEN,
+                        EVEN / 2,
+                        2 * EVEN,
+                        EVEN,
+                        EVEN,
+                        EVEN,
+                    ],
+                };
+                let mut reversed = skewed;
+                reversed.rate.reverse();
+                for (threads, shares) in [2, 3, 4]
+                    .into_iter()
+                    .flat_map(|t| [Shares::default(), skewed, reversed].map(|s| (t, s)))
+                {
                     let mut two = last.clone();
                     let hooks = Claimed::backwards(threads);
+                    let mut learnt = shares;
                     let e2 = arena
                         .scratch(|s| {
-                            partition(s, &ctx, generators, seeds, &mut two, start, None, &hooks)
+                            let sh = &mut learnt;
+                            partition(
+                                s, &ctx, generators, seeds, &mut two, start, None, sh, &hooks,
+                            )
                         })
                         .unwrap();
-                    let at = format!("cloud {c}, {start:?}, {threads} slabs");
-                    // The slabs' growths, checks, resets and gathers.
-                    assert_eq!(hooks.full_rounds.get(), 4, "{at}: the slabs did not run");
+                    let at = format!("cloud {c}, {start:?}, {threads} slabs, {shares:?}");
+                    // The slabs' growths, checks, resets and gathers, when
+                    // even (skewed, a small slab's list may run out of room
+                    // for its resets, and the growth falls back to one: once
+                    // here, cloud 3 in 4 slabs).
+                    if shares == Shares::default() {
+                        assert_eq!(hooks.full_rounds.get(), 4, "{at}: the slabs did not run");
+                    }
                     let differ = one.iter().zip(&two).filter(|(a, b)| a != b).count();
                     assert_eq!(differ, 0, "{at}: labels differ");
                     assert_eq!(e1.to_bits(), e2.to_bits(), "{at}: energy");
                 }
             }
         }
+    }
+
+    /// The cuts follow the rates: even by default; a slab that finished
+    /// first while another had grown half as many points gets its rate moved
+    /// half the way to twice the other's; rates stay within half and twice
+    /// the even one; a growth that measured nothing leaves them.
+    #[test]
+    fn shares_follow_the_rates_measured() {
+        let mut sh = Shares::default();
+        assert_eq!([0, 1, 2].map(|i| sh.upto(i, 3, 3000)), [1000, 2000, 3000]);
+        let mut seen = [0u32; MAX_SLABS];
+        seen[0] = 2000 | FINISHED;
+        seen[1] = 1000;
+        sh.learn(2, &seen);
+        // Measured 4/3 and 2/3 of the even rate, averaged with 1.
+        assert_eq!(&sh.rate[..3], &[EVEN * 7 / 6, EVEN * 5 / 6, EVEN]);
+        assert!((699..=700).contains(&sh.upto(0, 2, 1200)));
+        seen[1] = 0;
+        for _ in 0..20 {
+            sh.learn(2, &seen);
+        }
+        assert!(sh.rate[0] > EVEN * 19 / 10 && sh.rate[0] <= EVEN * 2);
+        assert_eq!(sh.rate[1], EVEN / 2);
+        let before = sh;
+        sh.learn(2, &[0; MAX_SLABS]);
+        sh.learn(1, &seen);
+        assert_eq!(sh, before);
     }
 }
