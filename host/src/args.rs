@@ -325,7 +325,8 @@ pub struct MemoryArgs {
     #[arg(long, value_name = "BYTES", value_parser = parse_bytes)]
     pub memory: Option<usize>,
     /// Threads to run on (default: every core). The output is the same for
-    /// every count.
+    /// every count. On Linux, when N is at most the CPUs the process may use,
+    /// each thread is pinned to a CPU of its own.
     #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = parse_threads)]
     pub threads: Option<usize>,
 }
