@@ -457,6 +457,17 @@ mod tests {
         met: bool,
     }
 
+    impl<'a> Meet<'a> {
+        /// One of `count` tasks that meet, counting on `arrived`.
+        fn of(arrived: &'a AtomicUsize, count: usize) -> Self {
+            Meet {
+                arrived,
+                count,
+                met: false,
+            }
+        }
+    }
+
     impl Task for Meet<'_> {
         fn run(&mut self) {
             self.arrived.fetch_add(1, Ordering::AcqRel);
@@ -504,11 +515,7 @@ mod tests {
             let arrived = AtomicUsize::new(0);
             let mut wheres: Vec<Where> = (0..2)
                 .map(|_| Where {
-                    meet: Meet {
-                        arrived: &arrived,
-                        count: 2,
-                        met: false,
-                    },
+                    meet: Meet::of(&arrived, 2),
                     cpu: None,
                 })
                 .collect();
@@ -537,13 +544,8 @@ mod tests {
                     std::thread::sleep(SPIN * 3);
                 }
                 let arrived = AtomicUsize::new(0);
-                let mut meets: Vec<Meet> = (0..threads)
-                    .map(|_| Meet {
-                        arrived: &arrived,
-                        count: threads,
-                        met: false,
-                    })
-                    .collect();
+                let mut meets: Vec<Meet> =
+                    (0..threads).map(|_| Meet::of(&arrived, threads)).collect();
                 let mut tasks: Vec<&mut dyn Task> =
                     meets.iter_mut().map(|m| m as &mut dyn Task).collect();
                 team.run(&mut tasks);
