@@ -326,7 +326,8 @@ pub struct MemoryArgs {
     pub memory: Option<usize>,
     /// Threads to run on (default: every core). The output is the same for
     /// every count. On Linux, when N is at most the CPUs the process may use,
-    /// each thread is pinned to a CPU of its own.
+    /// each helper thread runs its first round on a CPU other than the
+    /// calling thread's.
     #[arg(long, value_name = "N", allow_hyphen_values = true, value_parser = parse_threads)]
     pub threads: Option<usize>,
 }
