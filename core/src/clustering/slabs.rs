@@ -121,11 +121,11 @@ impl Shares {
     }
 
     /// Slab `i`'s cumulative share of the first `slabs` slabs' points, up to
-    /// and including it, of `of`.
+    /// and including it, of `of` (0 when `slabs` is 0).
     fn upto(&self, i: usize, slabs: usize, of: usize) -> usize {
         let slabs = slabs.min(MAX_SLABS);
         let sum: u64 = self.rate[..slabs].iter().map(|&r| r as u64).sum();
-        let upto: u64 = self.rate[..=i.min(slabs - 1)]
+        let upto: u64 = self.rate[..=i.min(slabs.saturating_sub(1))]
             .iter()
             .map(|&r| r as u64)
             .sum();
@@ -1305,6 +1305,7 @@ mod tests {
     fn shares_follow_the_rates_measured() {
         let mut sh = Shares::default();
         assert_eq!([0, 1, 2].map(|i| sh.upto(i, 3, 3000)), [1000, 2000, 3000]);
+        assert_eq!(sh.upto(0, 0, 3000), 0);
         let mut seen = [0u32; MAX_SLABS];
         seen[0] = 2000 | FINISHED;
         seen[1] = 1000;
