@@ -1110,7 +1110,10 @@ pub(crate) fn partition(
     if hooks.threads() > 1 {
         let guess = &*guess;
         let grown = s.scratch(|inner| {
-            slabs::grow_in_slabs(inner, ctx, generators, seeds, guess, labels, shares, hooks)
+            let last = start == Start::Warm;
+            slabs::grow_in_slabs(
+                inner, ctx, generators, seeds, guess, labels, last, shares, hooks,
+            )
         });
         if let Some(energy) = grown {
             return Ok(energy);
