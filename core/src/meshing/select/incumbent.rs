@@ -644,7 +644,15 @@ impl Solver<'_> {
         budget.progress.run(&mut [&mut here, &mut there]);
         let (here, there) = (here.out, there.out);
         let used_before = budget.nodes_used;
-        // In turn: ball k is kept when every ball before it used one node.
+        // In turn ball k would have had the nodes left after the balls
+        // before it (`budget.nodes_left` as the loop goes), not the
+        // `given` it had here. A search ends where its nodes run out or
+        // where its tree does, and in `used` nodes it took the same steps
+        // under any limit of at least `used`: ball k is kept when it
+        // ended within both limits (`used < given`: its tree ended) or
+        // the two limits are one; else it and the balls after it are
+        // searched again in turn.
+        let cap = NODES_PER_NEIGHBOURHOOD_FACET * ball_size as u64;
         let mut next_seed = at + 1;
         let mut in_turn = true;
         for k in 0..count {
@@ -656,6 +664,12 @@ impl Solver<'_> {
                 (None, Some(o)) => Some((o, true)),
                 (None, None) => None,
             };
+            let given = (group.nodes.0 - k as u64).min(cap);
+            let in_turn_limit = budget.nodes_left.min(cap);
+            in_turn = in_turn
+                && searched.is_some_and(|(&(_, used), _)| {
+                    used <= in_turn_limit && (used < given || in_turn_limit == given)
+                });
             let Some((&(result, used), on_lane)) = searched.filter(|_| in_turn) else {
                 // Searched again in turn: its state and seeds as before.
                 count_lane(1);
@@ -691,7 +705,6 @@ impl Solver<'_> {
                 self.neighbourhood_flags[f as usize] &= !FLAG_SEED;
             }
             next_seed = seed_at[k] + 1;
-            in_turn = used == 1;
         }
         if budget.nodes_used / NODES_PER_REPORT != used_before / NODES_PER_REPORT
             && !budget.report()
