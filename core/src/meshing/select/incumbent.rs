@@ -536,9 +536,10 @@ impl Solver<'_> {
     /// `budget`'s progress: this solver and the lane each search the next
     /// ball not yet taken. The result is that of searching them in turn:
     /// each ball is given the nodes it would have in turn if every ball
-    /// before it used one, and is kept when they did; the first ball that
-    /// used more is the last kept, and the balls after it are searched again
-    /// in turn (their seeds and state as before). Both solvers end with the
+    /// before it used one, and is kept when its search would have taken
+    /// the same steps under the nodes left in turn (below); from the first
+    /// ball that is not, the balls are searched again in turn (their seeds
+    /// and state as before). Both solvers end with the
     /// same shares and incumbent. Returns where the seeds go on in
     /// `facets`. Never inlined: its tasks' frames stay off the stack of the
     /// one-thread search (the firmware's).

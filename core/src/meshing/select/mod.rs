@@ -75,8 +75,9 @@
 //!    threads, the next ball is grown at once and, if it shares no edge with
 //!    this one, searched beside it on a *lane* (a second solver over the same
 //!    incidence, its own copy of the state), given the nodes it would have in
-//!    turn if the first used one; it is searched again in turn when the first
-//!    used more. The result is that of searching them one after the other.
+//!    turn if the first used one; it is searched again in turn when it might
+//!    have run out of the nodes it would have had in turn. The result is that
+//!    of searching them one after the other.
 //! 6. *Search* (`search.rs`): depth-first, on an explicit stack (no recursion, any
 //!    depth). Strong branching: the six most contested facets (both forced values
 //!    lose the most by the cached estimates) have both children bounded
