@@ -869,9 +869,11 @@ impl Repair<'_, '_, '_, '_> {
 /// slabs at once, one a thread of `hooks`, then repaired (module docs): the
 /// labels of growing as one, and the energy (the points' costs summed by the
 /// tasks' ranges, in order). The slabs' points in proportion to `shares`,
-/// which learns from the growth how fast each slab grew. `None` when `hooks`
-/// has one thread, the slabs would be too small, or the scratch has no room
-/// (`labels` untouched).
+/// which learns from the growth how fast each slab grew. With `last`,
+/// `labels` holds the last partition (a warm start) and each point goes to
+/// the slab of its last cluster's seed. `None` when `hooks` has one thread,
+/// the slabs would be too small, or the scratch has no room (`labels`
+/// untouched).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn grow_in_slabs(
     s: &Scratch,
