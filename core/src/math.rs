@@ -46,6 +46,16 @@ pub fn perpendicular(n: V3) -> V3 {
 /// the vertices, edges and face. A degenerate triangle (zero area) gives its
 /// nearest vertex.
 pub fn closest_on_triangle(p: V3, a: V3, b: V3, c: V3) -> (V3, [f32; 3]) {
+    closest_in_line(p, a, b, c)
+}
+
+/// [`closest_on_triangle`], always inlined: where only the distance is
+/// wanted ([`point_triangle_dist2`], in the nearest-face queries and the
+/// facets' scores, 650 thousand calls a bunny run) the coordinates are then
+/// never computed, nor the point passed back through memory (callgrind: 35
+/// M fewer instructions a one-thread bunny run, 1.4 %).
+#[inline(always)]
+fn closest_in_line(p: V3, a: V3, b: V3, c: V3) -> (V3, [f32; 3]) {
     let ab = sub(b, a);
     let ac = sub(c, a);
     let ap = sub(p, a);
@@ -109,8 +119,9 @@ pub fn closest_on_triangle(p: V3, a: V3, b: V3, c: V3) -> (V3, [f32; 3]) {
 
 /// Squared distance from `p` to triangle `(a, b, c)` (see
 /// [`closest_on_triangle`]).
+#[inline(always)]
 pub fn point_triangle_dist2(p: V3, a: V3, b: V3, c: V3) -> f32 {
-    let (q, _) = closest_on_triangle(p, a, b, c);
+    let (q, _) = closest_in_line(p, a, b, c);
     let d = sub(p, q);
     dot(d, d)
 }

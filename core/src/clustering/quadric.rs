@@ -86,7 +86,7 @@ pub fn plane_weight(u: Plane) -> f32 {
 impl Planes<'_> {
     /// `[c,1]ᵀ Q_v(i) [c,1]`: the diffused QEM of point `i`, at `p`, at `c`
     /// (Eq. 3): from its [`Local`] quadric where kept, else from the planes.
-    #[inline]
+    #[inline(always)]
     pub fn diffused_qem(&self, nb: &Neighbours, p: V3, i: usize, c: V3) -> f32 {
         if let Some(q) = self.diffused.get(i) {
             return local_eval(q, [c[0] - p[0], c[1] - p[1], c[2] - p[2]]);
@@ -101,7 +101,7 @@ impl Planes<'_> {
     }
 
     /// Total area weight of point `i`'s diffused quadric.
-    #[inline]
+    #[inline(always)]
     pub fn diffused_weight(&self, nb: &Neighbours, i: usize) -> f32 {
         if let Some(q) = self.diffused.get(i) {
             return q[0] + q[3] + q[5];

@@ -40,7 +40,7 @@ pub fn split_bytes(n: usize, m: usize) -> usize {
 }
 
 /// Squared error of point `i` under generator `c` (see the module docs).
-#[inline]
+#[inline(always)]
 pub(crate) fn point_error2(ctx: &Ctx, i: usize, c: V3) -> f32 {
     let w = ctx.planes.diffused_weight(ctx.nb, i);
     if w > 0.0 {

@@ -404,6 +404,7 @@ impl<'a> FaceGrid<'a> {
 
     /// The cells face `face`'s bounding box overlaps, as an inclusive range,
     /// or `None` for a face left out.
+    #[inline(always)]
     fn cell_range(&self, face: usize) -> Option<([u32; 3], [u32; 3])> {
         let (lo, hi) = self.face_box(face)?;
         Some(self.cells_of_box(lo, hi))

@@ -185,6 +185,7 @@ fn ln(x: f64) -> f64 {
 /// The shares `t − c_i` of `score` with `k t = score + Σ c_i` over the
 /// `k = on_minus_off.len()` edges (`c = on_minus_off`), the last one taking the
 /// rounding so that they sum to `score` exactly as far as floating point allows.
+#[inline(always)]
 fn equalising_shares(score: f64, on_minus_off: &[f64]) -> [f64; MAX_CONSTRAINTS] {
     let k = on_minus_off.len();
     let t = on_minus_off.iter().fold(score, |a, &b| a + b) / k as f64;
@@ -281,6 +282,7 @@ impl Solver<'_> {
     /// Edge `e`'s best term with the facet of its undecided incidence `x` forced
     /// on (not counting the facet's share), and with it forced off, from the
     /// cached top shares; `counts` are the edge's.
+    #[inline(always)]
     fn forced_terms(&self, e: usize, x: u32, counts: EdgeCounts) -> (f64, f64) {
         let EdgeCounts {
             selected,
@@ -304,6 +306,7 @@ impl Solver<'_> {
 
     /// Recompute edge `e`'s best shares per class and its term from the state and
     /// the shares.
+    #[inline(always)]
     fn refresh_top_shares(&mut self, e: usize) {
         let (term, at, top) = self.edge_top(e);
         self.edge_terms[e] = term;
@@ -313,7 +316,12 @@ impl Solver<'_> {
 
     /// Edge `e`'s term, top incidences and top shares (see
     /// [`Solver::refresh_top_shares`]), from the state and the shares. One
-    /// pass: the incidences of a class are consecutive.
+    /// pass: the incidences of a class are consecutive. Always inlined, as
+    /// are the bound's other small helpers on the hot paths (the refresh,
+    /// the forced terms, the losses, the marginals, the equalising split):
+    /// as calls, each passing its tuples back through memory, they cost the
+    /// selection about 30 M more instructions a one-thread bunny run
+    /// (callgrind).
     fn edge_top(&self, e: usize) -> (f64, [u32; 3], [f64; 5]) {
         let counts = self.edge_counts(e);
         // The best share of the three best classes, each class's second best, and
@@ -374,6 +382,7 @@ impl Solver<'_> {
     }
 
     /// [`shares_without`] for incidence `x` of edge `e`.
+    #[inline(always)]
     fn edge_shares_without(&self, e: usize, x: u32) -> (f64, f64, f64) {
         let top_at = &self.top_incidences[e];
         let in_top_class = top_at[0] != u32::MAX && self.same_class(x, top_at[0]);
@@ -413,6 +422,7 @@ impl Solver<'_> {
     /// Incidence `x` of an undecided facet on edge `e` (its counts and its
     /// best term `term`): what the term loses if the facet is forced on, and
     /// off.
+    #[inline(always)]
     fn losses(&self, e: usize, x: u32, counts: EdgeCounts, term: f64) -> (f64, f64) {
         let (on_term, off) = self.forced_terms(e, x, counts);
         let on = self.shares[x as usize] + on_term;
@@ -428,7 +438,7 @@ impl Solver<'_> {
     /// Facet `f`'s `picked_by` bits from its edges' fresh top shares, as
     /// [`Solver::refresh_marginals`] sets them, and with `losses` its losses
     /// if forced on and off, one per incidence.
-    #[inline]
+    #[inline(always)]
     fn facet_marginals(&self, f: usize, mut losses: Option<(&mut [f64], &mut [f64])>) -> u8 {
         let mut picked = 0u8;
         if self.facet_state[f] != UNDECIDED {
