@@ -136,6 +136,7 @@ impl<'p, 'a> Ctx<'p, 'a> {
     /// Seed Eq. 4. Always inlined, and the diffused QEM in it: as calls,
     /// region growing's offers took 23 M more instructions a one-thread
     /// bunny run (callgrind; plain `#[inline]` left both calls).
+    #[inline(always)]
     pub fn cost(&self, i: usize, c: V3) -> f32 {
         self.planes.diffused_qem(self.nb, self.points[i], i, c)
             + self.lambda_w * dist2(self.points[i], c)

@@ -157,7 +157,7 @@ pub(crate) fn try_split_in(
         }
         blocked[j] = true;
         for &p in &members[start[j] as usize..start[j + 1] as usize] {
-            for q in ctx.nb.symmetric(p as usize) {
+            for &q in ctx.nb.rows(p as usize).iter().copied().flatten() {
                 if let Some(b) = blocked.get_mut(labels[q as usize] as usize) {
                     *b = true;
                 }

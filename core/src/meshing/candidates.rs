@@ -364,10 +364,12 @@ fn candidates_counting_in<'a, 'b, A: Alloc<'b>>(
     let kept_small = |a: usize, f: &mut dyn FnMut(u32)| -> Option<()> {
         let mut table = LinkTable::new(links_cap);
         for &p in members.of(a) {
-            for q in nb.symmetric(p as usize) {
-                if let Some(&b) = rep.get(labels[q as usize] as usize) {
-                    if b as usize != a {
-                        table.add(b)?;
+            for row in nb.rows(p as usize) {
+                for &q in row {
+                    if let Some(&b) = rep.get(labels[q as usize] as usize) {
+                        if b as usize != a {
+                            table.add(b)?;
+                        }
                     }
                 }
             }

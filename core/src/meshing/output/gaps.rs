@@ -72,12 +72,16 @@ fn descend(points: &[V3], nb: &Neighbours, start: u32, q: V3) -> Option<(f32, u3
     let mut best = dist2(*points.get(at as usize)?, q);
     for _ in 0..STEPS {
         let mut next = at;
-        for j in nb.symmetric(at as usize) {
-            if let Some(&p) = points.get(j as usize) {
-                let e = dist2(p, q);
-                if e < best || (e == best && j < next) {
-                    best = e;
-                    next = j;
+        // Row by row rather than `symmetric`'s chained iterator: the same
+        // neighbours in the same order, in fewer instructions.
+        for row in nb.rows(at as usize) {
+            for &j in row {
+                if let Some(&p) = points.get(j as usize) {
+                    let e = dist2(p, q);
+                    if e < best || (e == best && j < next) {
+                        best = e;
+                        next = j;
+                    }
                 }
             }
         }

@@ -322,6 +322,7 @@ impl Solver<'_> {
     /// as calls, each passing its tuples back through memory, they cost the
     /// selection about 30 M more instructions a one-thread bunny run
     /// (callgrind).
+    #[inline(always)]
     fn edge_top(&self, e: usize) -> (f64, [u32; 3], [f64; 5]) {
         let counts = self.edge_counts(e);
         // The best share of the three best classes, each class's second best, and
