@@ -65,9 +65,14 @@ pub fn neighbourhood_pca(
 /// Centroid and covariance (unnormalised) of point `i` and the points `row`
 /// indexes, in `f64`. Indices out of range are skipped.
 fn covariance(points: &[V3], i: usize, row: &[u32]) -> ([f64; 3], Sym3) {
-    // The point, then its neighbours, each pass: written as two loops, not
-    // one chained iterator (the same terms in the same order, fewer
-    // instructions).
+    // The point, then its neighbours, to `f`: two loops, not one chained
+    // iterator (the same terms in the same order, fewer instructions).
+    fn around(points: &[V3], i: usize, row: &[u32], mut f: impl FnMut(&V3)) {
+        points.get(i).into_iter().for_each(&mut f);
+        row.iter()
+            .filter_map(|&j| points.get(j as usize))
+            .for_each(f);
+    }
     let mut c = [0.0f64; 3];
     let mut m = 0.0f64;
     let mut add = |q: &V3| {
@@ -77,12 +82,7 @@ fn covariance(points: &[V3], i: usize, row: &[u32]) -> ([f64; 3], Sym3) {
         }
         m += 1.0;
     };
-    if let Some(q) = points.get(i) {
-        add(q);
-    }
-    row.iter()
-        .filter_map(|&j| points.get(j as usize))
-        .for_each(&mut add);
+    around(points, i, row, &mut add);
     if m > 0.0 {
         for v in c.iter_mut() {
             *v /= m;
@@ -99,12 +99,7 @@ fn covariance(points: &[V3], i: usize, row: &[u32]) -> ([f64; 3], Sym3) {
         s[4] += d[1] * d[2];
         s[5] += d[2] * d[2];
     };
-    if let Some(q) = points.get(i) {
-        spread(q);
-    }
-    row.iter()
-        .filter_map(|&j| points.get(j as usize))
-        .for_each(&mut spread);
+    around(points, i, row, &mut spread);
     (c, Sym3(s))
 }
 

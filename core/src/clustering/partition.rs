@@ -1003,21 +1003,21 @@ impl Heap<'_> {
             crate::hint::prefetch(self.keys.as_ptr().wrapping_add(grand));
             crate::hint::prefetch(self.keys.as_ptr().wrapping_add(grand + 8));
             let (mut least, mut at) = (self.keys[first], first);
+            let mut offer = |c: usize, k: u64| {
+                let lower = k < least;
+                least = if lower { k } else { least };
+                at = if lower { c } else { at };
+            };
             if let Some(four) = self.keys[first..end].first_chunk::<ARITY>() {
                 // All four children: one bounds check, the loop unrolled
                 // (31 M fewer instructions a one-thread bunny run than the
                 // loop below for every node).
                 for (c, &k) in four.iter().enumerate().skip(1) {
-                    let lower = k < least;
-                    least = if lower { k } else { least };
-                    at = if lower { first + c } else { at };
+                    offer(first + c, k);
                 }
             } else {
                 for c in first + 1..end {
-                    let k = self.keys[c];
-                    let lower = k < least;
-                    least = if lower { k } else { least };
-                    at = if lower { c } else { at };
+                    offer(c, self.keys[c]);
                 }
             }
             if least >= moving {
