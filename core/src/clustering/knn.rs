@@ -10,7 +10,7 @@
 //! Ties are broken by point index, so the result equals a brute-force sort of
 //! `(distance², index)`. The queries go cell by cell: the points of a cell's
 //! 27-cell block (rings 0 and 1) are gathered once into rows of coordinates
-//! (a [`Batch`]), each query of the cell takes the k best of them, and ring
+//! (a `Batch`), each query of the cell takes the k best of them, and ring
 //! 1's certificate ends almost every query there (the bunny: 4,570 to 3,160
 //! instructions a query). Those it does not end, and the cells with more
 //! around them than a batch holds, take the ring search: ring 1 visited
