@@ -40,12 +40,4 @@ for i in $(seq "$R"); do
     e=$(date +%s.%N)
     echo "$tag $(echo "$e - $s" | bc)"
   done
-done | python3 -c "
-import sys, statistics as st, collections
-d = collections.defaultdict(list)
-for l in sys.stdin:
-    k, t = l.split(); d[k].append(float(t))
-m = {k: st.median(v) for k, v in d.items()}
-for k in ('o3d', 't1', 't2', 'pair'): print(k, 'median %.3f s' % m[k], 'n', len(d[k]))
-print('open3d/t2 %.1fx (bar 20x)  t1/t2 %.2fx (bar 1.7x)' % (m['o3d'] / m['t2'], m['t1'] / m['t2']))
-print('ceiling 2 x t1 / pair %.2fx (the most two threads could give over one here, now)' % (2 * m['t1'] / m['pair']))"
+done | python3 "$ROOT/bench/medians.py" o3d t1 t2 pair -- "o3d/t2:bar 20" "t1/t2:bar 1.7"

@@ -34,12 +34,4 @@ for i in $(seq "$R"); do
     e=$(date +%s.%N)
     echo "$tag $(echo "$e - $s" | bc)"
   done
-done | python3 -c "
-import sys, statistics as st, collections
-d = collections.defaultdict(list)
-for l in sys.stdin:
-    b, t = l.split(); d[b].append(float(t))
-m = {k: st.median(v) for k, v in d.items()}
-for k in ('base', 't1', 't2', 'pair'): print(k, 'median %.3f s' % m[k], 'n', len(d[k]))
-print('t1/base %.3f  t2/base %.3f  t1/t2 %.3f' % (m['t1']/m['base'], m['t2']/m['base'], m['t1']/m['t2']))
-print('ceiling 2 x t1 / pair %.3f (the most two threads could give over one here, now)' % (2 * m['t1'] / m['pair']))"
+done | python3 "$(dirname "$0")/medians.py" base t1 t2 pair -- t1/base t2/base t1/t2
