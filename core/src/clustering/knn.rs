@@ -158,6 +158,35 @@ impl Grid<'_> {
             slot = (slot + 1) & mask;
         }
     }
+
+    /// Calls `f(cell, z)` for the occupied cells of column `(x, y)` with `z`
+    /// in `z_lo..=z_hi`, ascending: one column lookup, then a walk up the
+    /// column's contiguous cells.
+    #[inline(always)]
+    fn for_column_cells(
+        &self,
+        x: u32,
+        y: u32,
+        z_lo: i64,
+        z_hi: i64,
+        mut f: impl FnMut(usize, i64),
+    ) {
+        let Some(first) = self.column(x, y) else {
+            return;
+        };
+        let column = self.cell_keys[first] >> 21;
+        let mut cell = first;
+        while cell < self.cell_keys.len() && self.cell_keys[cell] >> 21 == column {
+            let z = (self.cell_keys[cell] & 0x1F_FFFF) as i64;
+            if z > z_hi {
+                break;
+            }
+            if z >= z_lo {
+                f(cell, z);
+            }
+            cell += 1;
+        }
+    }
 }
 
 /// The k best `(d², index)` pairs seen so far, kept sorted (k <= 32).
@@ -521,24 +550,14 @@ impl Batch {
         let hi = |a: usize| (c[a] + 1).min(grid.dims[a] as i64 - 1);
         for x in lo(0)..=hi(0) {
             for y in lo(1)..=hi(1) {
-                let Some(first) = grid.column(x as u32, y as u32) else {
-                    continue;
-                };
                 let off = u8::from(x != c[0]) + u8::from(y != c[1]);
-                let column = grid.cell_keys[first] >> 21;
-                let mut at = first;
-                while at < grid.cell_keys.len() && grid.cell_keys[at] >> 21 == column {
-                    let z = (grid.cell_keys[at] & 0x1F_FFFF) as i64;
-                    if z > c[2] + 1 {
-                        break;
-                    }
-                    if z >= c[2] - 1 && count < runs.len() {
+                grid.for_column_cells(x as u32, y as u32, c[2] - 1, c[2] + 1, |at, z| {
+                    if count < runs.len() {
                         let (a, b) = (grid.cell_start[at], grid.cell_start[at + 1]);
                         runs[count] = (a, b, off + u8::from(z != c[2]));
                         count += 1;
                     }
-                    at += 1;
-                }
+                });
             }
         }
         for off in 0..=3 {
@@ -729,24 +748,14 @@ fn visit_first_ring(grid: &Grid, c: [u32; 3], gaps: &Gaps, best: &mut Best, p: V
         let gx = gaps.next(0, x - c[0] as i64);
         for y in lo(1)..=hi(1) {
             let gy = gaps.next(1, y - c[1] as i64);
-            let Some(first) = grid.column(x as u32, y as u32) else {
-                continue;
-            };
-            let column = grid.cell_keys[first] >> 21;
             let centre = x == c[0] as i64 && y == c[1] as i64;
-            let mut cell = first;
-            while cell < grid.cell_keys.len() && grid.cell_keys[cell] >> 21 == column {
-                let z = (grid.cell_keys[cell] & 0x1F_FFFF) as i64;
-                if z > z_hi {
-                    break;
-                }
-                if z >= z_lo && !(centre && z == c[2] as i64) && count < cells.len() {
+            grid.for_column_cells(x as u32, y as u32, z_lo, z_hi, |cell, z| {
+                if !(centre && z == c[2] as i64) && count < cells.len() {
                     let gz = gaps.next(2, z - c[2] as i64);
                     cells[count] = (gx * gx + gy * gy + gz * gz, cell as u32);
                     count += 1;
                 }
-                cell += 1;
-            }
+            });
         }
     }
     let cells = &mut cells[..count];
@@ -791,31 +800,16 @@ fn visit_ring(grid: &Grid, c: [u32; 3], r: i64, mut f: impl FnMut(usize)) {
     for x in lo(0)..=hi(0) {
         let ex = (x - c[0] as i64).abs() == r;
         for y in lo(1)..=hi(1) {
-            let Some(first) = grid.column(x as u32, y as u32) else {
-                continue;
-            };
             // On the ring's side walls the whole z range is new; inside, only the
             // two z faces belong to ring r.
             let wall = ex || (y - c[1] as i64).abs() == r;
-            let column = grid.cell_keys[first] >> 21;
-            let mut cell = first;
-            while cell < grid.cell_keys.len() && grid.cell_keys[cell] >> 21 == column {
-                let z = (grid.cell_keys[cell] & 0x1F_FFFF) as i64;
-                if z > z_hi {
-                    break;
-                }
-                let take = if wall {
-                    z >= z_lo
-                } else {
-                    z == z_face_lo || z == z_face_hi
-                };
-                if take {
+            grid.for_column_cells(x as u32, y as u32, z_lo, z_hi, |cell, z| {
+                if wall || z == z_face_lo || z == z_face_hi {
                     for slot in grid.cell_start[cell]..grid.cell_start[cell + 1] {
                         f(slot as usize);
                     }
                 }
-                cell += 1;
-            }
+            });
         }
     }
 }
