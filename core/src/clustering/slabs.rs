@@ -65,7 +65,7 @@
 //! point the repair grows again (about 0.5 % of the points a partition on
 //! the bunny, 2 % with cuts across the axis).
 
-use super::partition::{guessed, key, Ctx, Heap, FINAL, GUESSES, NONE};
+use super::partition::{guessed, key, Ctx, Heap, FILTER, FINAL, GUESSES, NONE};
 use crate::arena::{atomic_bytes, atomic_u32_rows, Alloc, Scratch};
 use crate::math::V3;
 use crate::parallel;
@@ -415,8 +415,12 @@ fn offer_within(shared: &Shared, heap: &mut Heap, part: &[u8], slab: u8, q: usiz
         }
     }
     let mut cut = false;
-    for row in rows {
-        for &nbr in row {
+    let mut open = [0u32; FILTER];
+    for chunk in rows.iter().flat_map(|row| row.chunks(FILTER)) {
+        // The slab's neighbours still open to an offer of `label`, listed
+        // without a branch on each, as in region growing as one.
+        let mut count = 0;
+        for &nbr in chunk {
             let p = nbr as usize;
             if part.get(p) != Some(&slab) {
                 cut = true;
@@ -426,10 +430,18 @@ fn offer_within(shared: &Shared, heap: &mut Heap, part: &[u8], slab: u8, q: usiz
                 continue;
             };
             let t = w[LABEL].load(Relaxed);
-            if t & FINAL != 0 || t == label || w[TRIED].load(Relaxed) == label {
+            let tried = w[TRIED].load(Relaxed);
+            let offered = (t & FINAL == 0) & (t != label) & (tried != label);
+            w[TRIED].store(if offered { label } else { tried }, Relaxed);
+            open[count & (FILTER - 1)] = nbr;
+            count += offered as usize;
+        }
+        for &nbr in open.iter().take(count) {
+            let p = nbr as usize;
+            let Some(w) = slots.slot(p) else {
                 continue;
-            }
-            w[TRIED].store(label, Relaxed);
+            };
+            let t = w[LABEL].load(Relaxed);
             let e = guessed(guess, p, label).unwrap_or_else(|| ctx.cost(p, c));
             if t == NONE || e < f32::from_bits(w[BEST].load(Relaxed)) {
                 // The level is set when it pops.
