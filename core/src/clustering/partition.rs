@@ -959,8 +959,14 @@ impl Heap<'_> {
         if self.len == self.keys.len() {
             return false;
         }
-        let mut i = self.len;
         self.len += 1;
+        self.sift_up(self.len - 1, key);
+        true
+    }
+
+    /// Put `key` into the hole at `i`, or where it rises to from there.
+    #[inline(always)]
+    fn sift_up(&mut self, mut i: usize, key: u64) {
         while i > 0 {
             let parent = (i - 1) / ARITY;
             if self.keys[parent] <= key {
@@ -970,7 +976,6 @@ impl Heap<'_> {
             i = parent;
         }
         self.keys[i] = key;
-        true
     }
 
     pub(super) fn pop(&mut self) -> Option<u64> {
@@ -985,23 +990,15 @@ impl Heap<'_> {
         // belongs near the bottom), then `moving` rises from there to its
         // place: the same heap as sifting it down from the root, with fewer
         // comparisons and mispredicted branches (one-thread bunny run,
-        // callgrind: 16 M fewer instructions, 0.27 M fewer mispredictions).
+        // callgrind: 16 M fewer instructions, 0.21 M fewer mispredictions).
         let mut i = 0;
         while let Some((least, at)) = self.least_child(i) {
             self.keys[i] = least;
             i = at;
         }
-        while i > 0 {
-            let parent = (i - 1) / ARITY;
-            if self.keys[parent] <= moving {
-                break;
-            }
-            self.keys[i] = self.keys[parent];
-            i = parent;
-        }
-        if i < self.len {
-            self.keys[i] = moving;
-        }
+        // (With the heap now empty, `moving` is the top itself, left in
+        // the unused slot 0.)
+        self.sift_up(i, moving);
         Some(top)
     }
 
