@@ -1227,6 +1227,15 @@ struct Front<'s, 'l> {
 /// point's k-NN row (12 by default) in one go, a long reverse row in parts.
 pub(super) const FILTER: usize = 16;
 
+/// Whether a neighbour holding `held` (its label, [`FINAL`] set when final)
+/// and last tried with `tried` is open to an offer of cluster `label`: not
+/// final, not holding it, not tried with it. Without a branch (see
+/// [`grow_from`]).
+#[inline(always)]
+pub(super) fn open_to(held: u32, tried: u32, label: u32) -> bool {
+    (held & FINAL == 0) & (held != label) & (tried != label)
+}
+
 /// Offer the cluster of the final point `q` to its unfinished neighbours.
 fn grow_from(ctx: &Ctx, generators: &[V3], f: &mut Front, q: usize) {
     let label = f.labels[q] & !FINAL;
@@ -1256,13 +1265,13 @@ fn grow_from(ctx: &Ctx, generators: &[V3], f: &mut Front, q: usize) {
         // bunny) follows no pattern a branch predictor learns. Each is
         // marked tried as it is listed, so a neighbour in both rows is
         // listed once, as when each was offered in turn. (Callgrind, the
-        // bunny at one thread: mispredicted branches 23.2 M to 20.0 M a
-        // run, for 91 M more instructions; `bench/notes.md`.)
+        // bunny at one thread: mispredicted branches 22.9 M to 20.0 M a
+        // run, for 107 M more instructions; `bench/notes.md`.)
         let mut count = 0;
         for &nbr in part {
             let t = f.labels[nbr as usize];
             let tried = &mut f.tried[nbr as usize];
-            let offered = (t & FINAL == 0) & (t != label) & (*tried != label);
+            let offered = open_to(t, *tried, label);
             *tried = if offered { label } else { *tried };
             open[count & (FILTER - 1)] = nbr;
             count += offered as usize;

@@ -65,7 +65,7 @@
 //! point the repair grows again (about 0.5 % of the points a partition on
 //! the bunny, 2 % with cuts across the axis).
 
-use super::partition::{guessed, key, Ctx, Heap, FILTER, FINAL, GUESSES, NONE};
+use super::partition::{guessed, key, open_to, Ctx, Heap, FILTER, FINAL, GUESSES, NONE};
 use crate::arena::{atomic_bytes, atomic_u32_rows, Alloc, Scratch};
 use crate::math::V3;
 use crate::parallel;
@@ -431,7 +431,7 @@ fn offer_within(shared: &Shared, heap: &mut Heap, part: &[u8], slab: u8, q: usiz
             };
             let t = w[LABEL].load(Relaxed);
             let tried = w[TRIED].load(Relaxed);
-            let offered = (t & FINAL == 0) & (t != label) & (tried != label);
+            let offered = open_to(t, tried, label);
             w[TRIED].store(if offered { label } else { tried }, Relaxed);
             open[count & (FILTER - 1)] = nbr;
             count += offered as usize;
