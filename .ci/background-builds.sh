@@ -29,7 +29,9 @@ if [ "$part" = a64 ]; then
   cargo test --release --no-run --message-format=json-render-diagnostics \
     -p vsaqem-core -p vsaqem --target aarch64-unknown-linux-musl >"$dir/a64-tests.json"
 ) >"$dir/a64.log" 2>&1
-echo $? >"$dir/a64.rc"
+status=$?
+{ echo "the a64 build took $SECONDS s, its user and system CPU-s:"; times; } >>"$dir/a64.log"
+echo "$status" >"$dir/a64.rc"
 fi
 
 if [ "$part" = py ]; then
@@ -42,5 +44,7 @@ if [ "$part" = py ]; then
   cargo fmt -- --check
   cargo clippy --release -- -D warnings
 ) >"$dir/py.log" 2>&1
-echo $? >"$dir/py.rc"
+status=$?
+{ echo "the Python build took $SECONDS s, its user and system CPU-s:"; times; } >>"$dir/py.log"
+echo "$status" >"$dir/py.rc"
 fi
