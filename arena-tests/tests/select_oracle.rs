@@ -559,12 +559,14 @@ fn bnb_matches_the_mip_on_random_small_instances() {
 }
 
 /// Sphere instances of the size the selection meets in the pipeline, with edges only and with
-/// their fold groups: the B&B proves them optimal and agrees with the MIP. Prints
-/// what it took (`--nocapture`). Minutes with the MIP: CI runs it once, in
-/// release.
+/// their fold groups, searched with [`SPHERE_NODE_LIMIT`] nodes: whenever the B&B
+/// reports optimal its objective is the MIP's optimum, otherwise the optimum lies
+/// between its objective and its upper bound; most are proved. Prints what it
+/// took (`--nocapture`). A minute with the MIP: CI runs it once, in release.
 #[test]
-#[ignore = "slow oracle (minutes): CI runs it in release"]
+#[ignore = "slow oracle (a minute): CI runs it in release"]
 fn bnb_matches_the_mip_on_sphere_candidates() {
+    let (mut proved, mut total) = (0, 0);
     let mut rng = Rng(0x5fe5e);
     // (points, neighbours, surface, also with fold groups).
     let cases = [
@@ -585,7 +587,7 @@ fn bnb_matches_the_mip_on_sphere_candidates() {
         }
         for (inst, what) in variants {
             let t = Instant::now();
-            let (sel, st) = run(&inst, 1_000_000);
+            let (sel, st) = run(&inst, SPHERE_NODE_LIMIT);
             let bnb = t.elapsed();
             let t = Instant::now();
             // The largest took the MIP 20 s on a loaded machine.
@@ -607,17 +609,45 @@ fn bnb_matches_the_mip_on_sphere_candidates() {
             st.forced,
             mip.as_secs_f64() * 1e3,
         );
-            assert!(st.optimal, "sphere {i} {what}: gap {}", st.gap);
             let exact =
                 exact.unwrap_or_else(|| panic!("sphere {i} {what}: the MIP did not finish"));
-            assert!(
-                close(st.objective, exact),
-                "sphere {i} {what}: B&B {} vs MIP {exact}",
-                st.objective
-            );
+            total += 1;
+            if st.optimal {
+                proved += 1;
+                assert!(
+                    close(st.objective, exact),
+                    "sphere {i} {what}: B&B {} vs MIP {exact}",
+                    st.objective
+                );
+            } else {
+                let tolerance = 1e-4 * exact.abs().max(1.0);
+                assert!(
+                    st.objective <= exact + tolerance,
+                    "sphere {i} {what}: B&B {} above the MIP's optimum {exact}",
+                    st.objective
+                );
+                assert!(
+                    st.upper_bound >= exact - tolerance,
+                    "sphere {i} {what}: bound {} < MIP {exact}",
+                    st.upper_bound
+                );
+            }
         }
     }
+    eprintln!("sphere instances: {total}, B&B proved {proved} within {SPHERE_NODE_LIMIT} nodes");
+    // Not vacuous: most are proved.
+    assert!(
+        4 * proved >= 3 * total,
+        "the B&B proved only {proved} of {total}"
+    );
 }
+
+/// Nodes for each sphere instance of the oracle: 25 times the pipeline's
+/// default (`--node-limit 200`). With a million, the oracle proved all sixteen,
+/// but one (sphere 6: open, 8 neighbours, edges only, 1,170 facets in one
+/// component) took 93,251 nodes and 203 s, two thirds of CI's oracle step; the
+/// others took 1,214 nodes at most. `sphere_benchmark` measures such searches.
+const SPHERE_NODE_LIMIT: u64 = 5_000;
 
 /// A table of 24 sphere instances per surface kind, B&B only (no MIP): how many
 /// nodes and how long. `cargo test -p arena-tests --test select_oracle -- --ignored --nocapture`
