@@ -2,15 +2,20 @@
 //! `bumpalo::Bump` with an allocation limit works like one over a slice, and a
 //! limit too small is the same typed `Exhausted`, never a panic.
 //!
-//! `cargo test -p arena-tests --features bumpalo --test bump_arena`
+//! `cargo test -p vsaqem-core --features bumpalo --test bump_arena`
 #![cfg(feature = "bumpalo")]
 
-use arena_tests::cloud;
 use bumpalo::Bump;
 use std::mem::MaybeUninit;
 use std::panic::{catch_unwind, AssertUnwindSafe};
-use vsaqem_core::sample::Shape;
+use vsaqem_core::sample::{fill, Shape};
 use vsaqem_core::{arena_bytes, reconstruct, Arena, Error, Params, Silent, V3};
+
+fn cloud(shape: Shape, n: usize, seed: u64) -> Vec<V3> {
+    let mut p = vec![[0.0; 3]; n];
+    fill(shape, seed, 0.0, &mut p);
+    p
+}
 
 fn setup() -> (Vec<V3>, Params) {
     let params = Params {
