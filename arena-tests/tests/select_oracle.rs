@@ -498,6 +498,31 @@ fn close(a: f64, b: f64) -> bool {
     (a - b).abs() <= 1e-4 * a.abs().max(b.abs()).max(1.0)
 }
 
+/// A search judged against the MIP's optimum `exact`: reported optimal, its
+/// objective is the optimum; otherwise the optimum lies between its objective
+/// and its upper bound (1e-4 relative).
+fn agrees_with_mip(st: &SelectStats, exact: f64, what: &str) {
+    if st.optimal {
+        assert!(
+            close(st.objective, exact),
+            "{what}: B&B {} vs MIP {exact}",
+            st.objective
+        );
+    } else {
+        let tolerance = 1e-4 * exact.abs().max(1.0);
+        assert!(
+            st.objective <= exact + tolerance,
+            "{what}: B&B {} above the MIP's optimum {exact}",
+            st.objective
+        );
+        assert!(
+            st.upper_bound >= exact - tolerance,
+            "{what}: bound {} < MIP {exact}",
+            st.upper_bound
+        );
+    }
+}
+
 /// One random instance against the MIP: solved optimal, equal to the MIP's
 /// optimum; with a tiny node limit still feasible with an honest bound. Returns
 /// the MIP's optimum when it proved one.
@@ -612,26 +637,8 @@ fn bnb_matches_the_mip_on_sphere_candidates() {
             let exact =
                 exact.unwrap_or_else(|| panic!("sphere {i} {what}: the MIP did not finish"));
             total += 1;
-            if st.optimal {
-                proved += 1;
-                assert!(
-                    close(st.objective, exact),
-                    "sphere {i} {what}: B&B {} vs MIP {exact}",
-                    st.objective
-                );
-            } else {
-                let tolerance = 1e-4 * exact.abs().max(1.0);
-                assert!(
-                    st.objective <= exact + tolerance,
-                    "sphere {i} {what}: B&B {} above the MIP's optimum {exact}",
-                    st.objective
-                );
-                assert!(
-                    st.upper_bound >= exact - tolerance,
-                    "sphere {i} {what}: bound {} < MIP {exact}",
-                    st.upper_bound
-                );
-            }
+            proved += st.optimal as u32;
+            agrees_with_mip(&st, exact, &format!("sphere {i} {what}"));
         }
     }
     eprintln!("sphere instances: {total}, B&B proved {proved} within {SPHERE_NODE_LIMIT} nodes");
@@ -804,20 +811,7 @@ fn bnb_matches_the_mip_on_pieces_of_the_shared_clouds() {
             proved += st.optimal as u32;
             let Some(exact) = exact else { continue };
             compared += 1;
-            if st.optimal {
-                assert!(
-                    close(st.objective, exact),
-                    "{name} piece {i}: B&B {} vs MIP {exact}",
-                    st.objective
-                );
-            } else {
-                assert!(st.objective <= exact + 1e-4 * exact.abs().max(1.0));
-                assert!(
-                    st.upper_bound >= exact - 1e-4 * exact.abs().max(1.0),
-                    "{name} piece {i}: bound {} < MIP {exact}",
-                    st.upper_bound
-                );
-            }
+            agrees_with_mip(&st, exact, &format!("{name} piece {i}"));
         }
     }
     eprintln!("shared pieces: {total}, B&B proved {proved}, MIP proved {compared}");

@@ -11,18 +11,14 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 use vsaqem_core::sample::{fill, Shape};
 use vsaqem_core::{arena_bytes, reconstruct, Arena, Error, Params, Silent, V3};
 
-fn cloud(shape: Shape, n: usize, seed: u64) -> Vec<V3> {
-    let mut p = vec![[0.0; 3]; n];
-    fill(shape, seed, 0.0, &mut p);
-    p
-}
-
 fn setup() -> (Vec<V3>, Params) {
     let params = Params {
         clusters: 300,
         ..Params::default()
     };
-    (cloud(Shape::Demo, 12000, 4), params)
+    let mut points = vec![[0.0; 3]; 12000];
+    fill(Shape::Demo, 4, 0.0, &mut points);
+    (points, params)
 }
 
 #[test]
