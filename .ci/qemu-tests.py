@@ -22,14 +22,9 @@ from concurrent.futures import ThreadPoolExecutor
 # together. A binary not named here is taken as short.
 SECONDS = {
     ("vsaqem_core", "lib"): 116,
-    ("threads_cli", "test"): 94,
     ("vsaqem", "lib"): 41,
     ("closed_streams", "test"): 34,
-    ("output_cli", "test"): 31,
     ("formats", "test"): 31,
-    ("cli", "test"): 30,
-    ("empty_mesh_cli", "test"): 21,
-    ("clean_cli", "test"): 18,
     ("clustering", "test"): 15,
 }
 
