@@ -49,10 +49,10 @@ if [ "$part" = a64 ]; then
 ) >"$dir/a64.log" 2>&1
 status=$?
 { echo "the a64 build took $SECONDS s, its user and system CPU-s:"; times; } >>"$dir/a64.log"
-# Then the tests under qemu, at nice 5: begun here, at about a third of the
-# run, they use what the steps in front leave of the cores (the fuzzers' share,
-# at nice 10) instead of running after them (ci27: 345 s at the end). Their
-# pid file is there before a64.rc, for bg_wait.
+# Then the tests under qemu, at the part's nice 5 (.ci/run): begun here, at
+# about a third of the run, they use what the steps in front leave of the
+# cores (the fuzzers' share, at nice 10) instead of running after them (ci27:
+# 345 s at the end). Their pid file is there before a64.rc, for bg_wait.
 echo $$ >"$dir/a64-tests.pid"
 echo "$status" >"$dir/a64.rc"
 (
@@ -61,7 +61,7 @@ echo "$status" >"$dir/a64.rc"
   export CARGO_TARGET_DIR="$PWD/target/a64"
   a64=$CARGO_TARGET_DIR/aarch64-unknown-linux-musl/release/vsaqem
   if "$a64" --version >/dev/null 2>&1; then
-    nice -n 5 python3 .ci/qemu-tests.py "$dir/a64-tests.json" 2
+    python3 .ci/qemu-tests.py "$dir/a64-tests.json" 2
   else
     only=()
     skipped=()
@@ -71,8 +71,8 @@ echo "$status" >"$dir/a64.rc"
     done
     echo "skipped under qemu: ${skipped[*]} (they start the aarch64 vsaqem binary as a"
     echo "  child process, and this kernel cannot exec it: binfmt_misc is unavailable)"
-    nice -n 5 cargo test --release -p vsaqem-core --target aarch64-unknown-linux-musl
-    nice -n 5 cargo test --release -p vsaqem --target aarch64-unknown-linux-musl --lib --bins "${only[@]}"
+    cargo test --release -p vsaqem-core --target aarch64-unknown-linux-musl
+    cargo test --release -p vsaqem --target aarch64-unknown-linux-musl --lib --bins "${only[@]}"
   fi
 ) >"$dir/a64-tests.log" 2>&1
 status=$?

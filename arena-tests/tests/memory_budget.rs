@@ -15,7 +15,7 @@
 //!
 //! Shared clouds are read from `../shared/data/clouds` (skipped when absent).
 //! The sweep over all of them is `#[ignore]`d in `cargo test`, as the other
-//! sweeps are: CI runs it in release (`cargo test --release -p arena-tests
+//! sweeps are: CI runs it from the same build (`cargo test -p arena-tests
 //! --test memory_budget -- --ignored`); the bunny's threshold test stays.
 
 use arena_tests::{
@@ -152,7 +152,7 @@ fn generated_shapes_fit_their_budget_within_twice_the_peak() {
 #[test]
 #[cfg_attr(
     shared_data,
-    ignore = "a sweep: six parameter sets on every shared cloud, run in release (CI does)"
+    ignore = "a sweep: six parameter sets on every shared cloud, minutes (CI runs it with --ignored)"
 )]
 #[cfg_attr(
     not(shared_data),

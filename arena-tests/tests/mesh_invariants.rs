@@ -1,6 +1,6 @@
 //! Output invariants of `reconstruct` on generated shapes and the shared clouds.
 //! The shared clouds' sweep is `#[ignore]`d in `cargo test`, as the other
-//! sweeps are: CI runs it in release (`cargo test --release -p arena-tests
+//! sweeps are: CI runs it from the same build (`cargo test -p arena-tests
 //! --test mesh_invariants -- --ignored`).
 
 use arena_tests::{
@@ -130,7 +130,7 @@ fn a_box_keeps_its_corners_and_edges() {
 #[test]
 #[cfg_attr(
     shared_data,
-    ignore = "a sweep: every shared cloud at four cluster counts, run in release (CI does)"
+    ignore = "a sweep: every shared cloud at four cluster counts, minutes (CI runs it with --ignored)"
 )]
 #[cfg_attr(
     not(shared_data),

@@ -587,9 +587,9 @@ fn bnb_matches_the_mip_on_random_small_instances() {
 /// their fold groups, searched with [`SPHERE_NODE_LIMIT`] nodes: whenever the B&B
 /// reports optimal its objective is the MIP's optimum, otherwise the optimum lies
 /// between its objective and its upper bound; most are proved. Prints what it
-/// took (`--nocapture`). A minute with the MIP: CI runs it once, in release.
+/// took (`--nocapture`). A minute with the MIP: CI runs it once.
 #[test]
-#[ignore = "slow oracle (a minute): CI runs it in release"]
+#[ignore = "slow oracle (a minute): CI runs it with --ignored"]
 fn bnb_matches_the_mip_on_sphere_candidates() {
     let (mut proved, mut total) = (0, 0);
     let mut rng = Rng(0x5fe5e);
@@ -767,9 +767,9 @@ fn piece(p: &SelectionProblem<'_>, seed: usize, size: usize) -> Instance {
 /// Pieces of 100 to 350 facets cut from the selection problems the pipeline builds
 /// for the shared clouds (250 clusters): whenever the B&B reports optimal, its
 /// objective is the MIP's optimum; otherwise its upper bound is not below it.
-/// Skipped when `../shared` is absent. Minutes: CI runs it once, in release.
+/// Skipped when `../shared` is absent. Minutes: CI runs it once.
 #[test]
-#[ignore = "slow oracle (minutes, needs ../shared/data/clouds): CI runs it in release"]
+#[ignore = "slow oracle (minutes, needs ../shared/data/clouds): CI runs it with --ignored"]
 fn bnb_matches_the_mip_on_pieces_of_the_shared_clouds() {
     let Some(files) = shared_clouds() else { return };
     let params = Params {

@@ -13,8 +13,8 @@
 //! - `--max-error` 1 % and 0.5 %: met on every model (except [`SHORT_BOUND`]),
 //!   and where it is not, core's report says by how much.
 //!
-//! 60 reconstructions: slow in a debug build, so `#[ignore]`d; CI runs them in
-//! release (`cargo test --release -p arena-tests --test shared_clouds -- --ignored`).
+//! 60 reconstructions, minutes, so `#[ignore]`d in `cargo test`; CI runs them
+//! from the same build (`cargo test -p arena-tests --test shared_clouds -- --ignored`).
 
 use arena_tests::{clean_and_reconstruct, load_shared_cloud, shared_clouds, stem};
 use vsaqem::eval::{evaluate, Evaluation};
@@ -81,7 +81,7 @@ fn summary(e: &Evaluation) -> String {
 #[test]
 #[cfg_attr(
     shared_data,
-    ignore = "60 reconstructions of the shared clouds: run in release (CI does)"
+    ignore = "60 reconstructions of the shared clouds: minutes (CI runs it with --ignored)"
 )]
 #[cfg_attr(
     not(shared_data),
@@ -145,7 +145,7 @@ fn shared_clouds_give_valid_meshes_at_every_cluster_count() {
 #[test]
 #[cfg_attr(
     shared_data,
-    ignore = "20 reconstructions of the shared clouds under an error bound: run in release (CI does)"
+    ignore = "20 reconstructions of the shared clouds under an error bound: minutes (CI runs it with --ignored)"
 )]
 #[cfg_attr(
     not(shared_data),
