@@ -18,6 +18,14 @@ cd "$(dirname "$0")/.."
 dir=$1
 part=$2
 
+# .ci/run starts each part in a session of its own (setsid: a failed run kills
+# it whole). Where the kernel groups processes by session for scheduling
+# (sched_autogroup_enabled, as on this machine), it shares the CPU between
+# the groups first and a nice value counts only within one: a part at nice
+# 5 got as much as the steps in front (ci35). The session's group takes the
+# part's nice value.
+echo "$(nice)" >/proc/self/autogroup 2>/dev/null || true
+
 # The host's test files run under qemu (see the a64 part).
 QEMU_HOST_TESTS="closed_streams io_hostile memory_cli formats eval"
 

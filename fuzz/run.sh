@@ -15,6 +15,7 @@
 #   FUZZ_TIMEOUT=300 nice -n 19 bash fuzz/run.sh 3600   # long runs beside other work
 #   FUZZ_NICE=10 bash fuzz/run.sh 60   # build at the normal priority, fuzz at nice 10
 #   FUZZ_OPT_LEVEL=1 bash fuzz/run.sh 30   # the targets built at opt-level 1 (CI)
+#   setsid env FUZZ_NICE=10 FUZZ_NICE_SESSION=1 bash fuzz/run.sh 30   # its session niced too
 set -euo pipefail
 cd "$(dirname "$0")"
 seconds=${1:-60}
@@ -52,6 +53,13 @@ fi
 # the caller's.
 if [ -n "${FUZZ_NICE:-}" ]; then
   renice -n "$FUZZ_NICE" -p $$ >/dev/null
+  # FUZZ_NICE_SESSION=1 (a run in a session of its own, as CI's): the
+  # session's scheduling group takes the value too. Where the kernel groups
+  # processes by session (sched_autogroup_enabled), it shares the CPU
+  # between the groups first, and a nice value counts only within one.
+  if [ "${FUZZ_NICE_SESSION:-}" = 1 ]; then
+    echo "$FUZZ_NICE" >/proc/self/autogroup 2>/dev/null || true
+  fi
 fi
 
 failed=()
