@@ -75,7 +75,7 @@ echo "$status" >"$dir/a64.rc"
     skipped=()
     for t in $QEMU_HOST_TESTS; do
       f=host/tests/$t.rs
-      if grep -qE 'CARGO_BIN_EXE|\bbin\(\)|run_with_report' "$f"; then skipped+=("$f"); else only+=(--test "$(basename "$f" .rs)"); fi
+      if grep -qE 'CARGO_BIN_EXE|\bbin\(\)|run_with_report' "$f"; then skipped+=("$f"); else only+=(--test "$t"); fi
     done
     echo "skipped under qemu: ${skipped[*]} (they start the aarch64 vsaqem binary as a"
     echo "  child process, and this kernel cannot exec it: binfmt_misc is unavailable)"
