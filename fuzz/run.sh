@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Runs every fuzz target for SECONDS (default 60) each, one after the other
-# (one core at a time: no -jobs/-workers), from fuzz/corpus/<target> (kept,
+# (one core at a time: no -jobs/-workers; FUZZ_LANES=N runs N targets at
+# once, one core each), from fuzz/corpus/<target> (kept,
 # gitignored) and the seeds of seed.sh, then prints each target's runs,
 # coverage (cov: edges) and features (ft:) from libFuzzer's final line; the
 # whole output of each is in fuzz/logs/<target>.log.
@@ -15,6 +16,7 @@
 #   FUZZ_TIMEOUT=300 nice -n 19 bash fuzz/run.sh 3600   # long runs beside other work
 #   FUZZ_NICE=10 bash fuzz/run.sh 60   # build at the normal priority, fuzz at nice 10
 #   FUZZ_OPT_LEVEL=1 bash fuzz/run.sh 30   # the targets built at opt-level 1 (CI)
+#   FUZZ_LANES=2 bash fuzz/run.sh 30   # two targets at a time (CI)
 #   setsid env FUZZ_NICE=10 FUZZ_NICE_SESSION=1 bash fuzz/run.sh 30   # its session niced too
 set -euo pipefail
 cd "$(dirname "$0")"
@@ -62,14 +64,14 @@ if [ -n "${FUZZ_NICE:-}" ]; then
   fi
 fi
 
-failed=()
-summary=()
-for t in "${targets[@]}"; do
+# One target: its summary line into logs/<target>.summary, and its status.
+fuzz_one() {
+  local t=$1
   mkdir -p "corpus/$t" "artifacts/$t" logs
   # Not in artifacts/: cargo fuzz names the newest file there as the failing input.
-  log="logs/$t.log"
-  start=$SECONDS
-  status=0
+  local log="logs/$t.log"
+  local start=$SECONDS
+  local status=0
   # An input may take 20 s; reconstruct's 60: it runs core twice under
   # AddressSanitizer, and 150 random points in a cube at the default node
   # limit take 1.4 s a run without it (the selection on a dense candidate
@@ -77,23 +79,66 @@ for t in "${targets[@]}"; do
   # FUZZ_TIMEOUT sets one limit for all: libFuzzer's limit is wall time, and
   # a fuzzer started at a low priority on a busy machine can wait longer than
   # that for the CPU (its timeouts then replay in a few seconds).
-  limit=20
+  local limit=20
   if [ "$t" = reconstruct ]; then limit=60; fi
   limit=${FUZZ_TIMEOUT:-$limit}
   "${fuzz[@]}" run "$t" "corpus/$t" "seeds/$t" -- \
     -max_total_time="$seconds" -timeout="$limit" -print_final_stats=1 >"$log" 2>&1 || status=$?
-  took=$((SECONDS - start))
+  local took=$((SECONDS - start))
+  local done_line runs cov
   done_line=$(grep -E '^#[0-9]+[[:space:]]+DONE' "$log" | tail -1 || true)
   runs=$(grep -oE 'stat::number_of_executed_units:[[:space:]]*[0-9]+' "$log" | grep -oE '[0-9]+$' || echo '?')
   cov=$(sed -nE 's/.* cov: ([0-9]+) ft: ([0-9]+) corp: ([0-9]+).*/cov \1  ft \2  corpus \3/p' <<<"$done_line")
   if [ "$status" -ne 0 ] || [ -z "$done_line" ]; then
-    failed+=("$t")
     cov="FAILED (exit $status), see fuzz/$log and fuzz/artifacts/$t/"
     grep -E 'panicked|ERROR|SUMMARY|Test unit written' "$log" | head -5 || true
+    status=1
   fi
-  summary+=("$(printf '%-12s %5d s  %10s runs  %s' "$t" "$took" "$runs" "$cov")")
-  echo "${summary[-1]}"
+  printf '%-12s %5d s  %10s runs  %s\n' "$t" "$took" "$runs" "$cov" | tee "logs/$t.summary"
+  return "$status"
+}
+
+# FUZZ_LANES (default 1): how many targets fuzz at once, each lane taking the
+# next target of the list when its last one ends. The 30 s a target are wall
+# time: CI's two lanes take half the wall time of one (their CPU is what the
+# machine has to spare, at FUZZ_NICE), and a lane is one core, no more.
+lanes=${FUZZ_LANES:-1}
+mkdir -p logs
+for t in "${targets[@]}"; do rm -f "logs/$t.summary"; done
+queue=logs/.queue
+echo 0 >"$queue"
+next_target() {
+  # The queue's counter, read and advanced under a lock.
+  (
+    flock 9
+    local n
+    n=$(<"$queue")
+    echo $((n + 1)) >"$queue"
+    echo "$n"
+  ) 9>"$queue.lock"
+}
+lane() {
+  local n failed=0
+  while n=$(next_target) && [ "$n" -lt ${#targets[@]} ]; do
+    fuzz_one "${targets[$n]}" || failed=1
+  done
+  return "$failed"
+}
+lane_pids=()
+for ((l = 0; l < lanes; l++)); do
+  lane &
+  lane_pids+=($!)
 done
+for p in "${lane_pids[@]}"; do wait "$p" || true; done
+
+failed=()
+summary=()
+for t in "${targets[@]}"; do
+  line=$(cat "logs/$t.summary" 2>/dev/null || echo "$t: did not run")
+  summary+=("$line")
+  case $line in *FAILED* | *"did not run"*) failed+=("$t") ;; esac
+done
+rm -f "$queue" "$queue.lock"
 
 echo
 echo "fuzzing, $seconds s a target:"
