@@ -51,6 +51,7 @@ if [ -n "${FUZZ_OPT_LEVEL:-}" ]; then
   export CARGO_PROFILE_RELEASE_OPT_LEVEL=$FUZZ_OPT_LEVEL
 fi
 "${fuzz[@]}" build
+echo "the targets built at $SECONDS s"
 # The fuzzers (started after this) inherit the lowered priority; the build had
 # the caller's.
 if [ -n "${FUZZ_NICE:-}" ]; then
