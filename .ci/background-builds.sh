@@ -59,8 +59,8 @@ status=$?
 { echo "the a64 build took $SECONDS s, its user and system CPU-s:"; times; } >>"$dir/a64.log"
 # Then the tests under qemu, at the part's nice 5 (.ci/run): begun here, at
 # about a third of the run, they use what the steps in front leave of the
-# cores (the fuzzers' share, at nice 10) instead of running after them (ci27:
-# 345 s at the end). Their pid file is there before a64.rc, for bg_wait.
+# cores (beside the fuzzers, also at nice 5) instead of running after them
+# (ci27: 345 s at the end). Their pid file is there before a64.rc, for bg_wait.
 echo $$ >"$dir/a64-tests.pid"
 echo "$status" >"$dir/a64.rc"
 (
